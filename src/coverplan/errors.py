@@ -1,0 +1,28 @@
+"""Errors a user can act on. The CLI prints their message on one line and exits 2."""
+
+from __future__ import annotations
+
+
+class CoverplanError(Exception):
+    """Base class: a problem with the user's input or settings, not a bug."""
+
+
+class InputFileError(CoverplanError):
+    """A file is missing, unreadable, of an unknown format, or holds no usable data."""
+
+    def __init__(self, path, problem: str):
+        self.path = str(path)
+        self.problem = problem
+        super().__init__(f"{self.path}: {problem}")
+
+
+class RouteFormatError(InputFileError):
+    """A route file that does not follow the coverplan-route format."""
+
+
+class ParameterError(CoverplanError):
+    """A parameter value that cannot work (non-positive size, unknown preset, ...)."""
+
+
+class PlanningError(CoverplanError):
+    """Settings that make a plan impossible (start inside a mesh, d_opt <= security, ...)."""
