@@ -1,0 +1,86 @@
+"""Build the sample scenes in this folder (run: python meshes/make_meshes.py).
+
+Sizes follow the thesis's experiments (Chapter 4): a 50 m grid with the building near its
+centre, d_opt 7 m and security 3 m in mind. Targets and obstacles are separate files.
+"""
+
+from pathlib import Path
+
+import numpy as np
+import trimesh
+from shapely.geometry import Polygon, box
+from shapely.ops import unary_union
+
+HERE = Path(__file__).resolve().parent
+C = 25.0  # centre of the thesis's 50 m grid
+
+
+def prism(polygon, height, z0=0.0):
+    mesh = trimesh.creation.extrude_polygon(polygon, height)
+    mesh.apply_translation([0, 0, z0])
+    return mesh
+
+
+def cuboid(x0, y0, z0, x1, y1, z1):
+    return prism(box(x0, y0, x1, y1), z1 - z0, z0)
+
+
+def union(*meshes):
+    return trimesh.boolean.union(list(meshes), engine="manifold")
+
+
+def save(mesh, name):
+    mesh.export(HERE / name)
+    print(f"{name}: {len(mesh.faces)} faces, watertight={mesh.is_watertight}, "
+          f"bounds={np.round(mesh.bounds, 2).tolist()}")
+
+
+def shapes_2d():
+    """The four slice shapes of thesis Figure 4.1 (perimeters ~60, 80, 90, 60 m)."""
+    square = box(C - 7.5, C - 7.5, C + 7.5, C + 7.5)
+    ell = Polygon([(15, 15), (35, 15), (35, 25), (25, 25), (25, 35), (15, 35)])
+    h_shape = unary_union([box(16, 17.25, 21, 32.75), box(29, 17.25, 34, 32.75), box(21, 23, 29, 27)])
+    side = 20.0
+    triangle = Polygon([(C - side / 2, C - side * np.sqrt(3) / 6),
+                        (C + side / 2, C - side * np.sqrt(3) / 6),
+                        (C, C + side * np.sqrt(3) / 3)])
+    return {"square": square, "l": ell, "h": h_shape, "triangle": triangle}
+
+
+def main():
+    for name, poly in shapes_2d().items():
+        print(f"  {name}: perimeter {poly.length:.1f} m")
+        save(prism(poly, 8.0), f"{name}_prism.obj")
+
+    core = cuboid(C - 6.5, C - 6.5, 0, C + 6.5, C + 6.5, 30)
+    save(core, "thesis_prism.obj")
+    ring = cuboid(C - 10.5, C - 10.5, 14, C + 10.5, C + 10.5, 16)
+    save(union(core, ring), "ring_prism.obj")
+    pyramid = trimesh.Trimesh(
+        vertices=[[C - 12, C - 12, 0], [C + 12, C - 12, 0], [C + 12, C + 12, 0],
+                  [C - 12, C + 12, 0], [C, C, 24]],
+        faces=[[0, 2, 1], [0, 3, 2], [0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
+    save(pyramid, "pyramid.obj")
+    # Figure 4.11: a large obstacle standing the full height and a small one between slices.
+    large = cuboid(C + 14.5, C - 3, 0, C + 18.5, C + 3, 32)
+    small = cuboid(C - 1.5, C - 12.5, 14, C + 1.5, C - 10.5, 16)
+    save(trimesh.util.concatenate([large, small]), "fig411_obstacles.obj")
+
+    walls = cuboid(C - 5, C - 4, 0, C + 5, C + 4, 6)
+    roof = prism(Polygon([(-4, 0), (4, 0), (0, 3)]), 10.0)
+    roof.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0]))
+    roof.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0, 0]))
+    roof.apply_translation([0, 0, 0])
+    roof.apply_translation(np.array([C, C, 6]) - [roof.bounds[:, 0].mean(), roof.bounds[:, 1].mean(), roof.bounds[0, 2]])
+    save(union(walls, roof), "gabled_house.obj")
+
+    yard = box(C - 15, C - 15, C + 15, C + 15).difference(box(C - 7, C - 7, C + 7, C + 7))
+    save(prism(yard, 12.0), "courtyard.obj")
+
+    # A box with an obstacle (a shed) flush against the middle of its south wall.
+    save(cuboid(C - 8, C - 5, 0, C + 8, C + 5, 12), "flush_target.obj")
+    save(cuboid(C - 3, C - 8, 0, C + 3, C - 5, 4), "flush_obstacle.obj")
+
+
+if __name__ == "__main__":
+    main()

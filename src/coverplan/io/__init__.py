@@ -1,0 +1,102 @@
+"""Readers and writers behind one registry each, keyed by file extension / format name.
+
+Readers return a :class:`MeshSource` (named meshes in metres, plus CRS if the file has
+one); writers take a :class:`~coverplan.route.Route` and a path.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import trimesh
+
+from ..errors import InputFileError
+
+
+@dataclass
+class MeshSource:
+    """What a reader found in one file: named meshes and optional georeferencing."""
+
+    meshes: list[tuple[str, trimesh.Trimesh]]
+    crs: str | None = None
+    # names of meshes the file itself marks as the target (e.g. the chosen building)
+    target_names: list[str] | None = None
+    notes: list[str] = field(default_factory=list)
+
+
+Reader = Callable[..., MeshSource]
+Writer = Callable[..., list[Path]]
+
+_READERS: dict[str, Reader] = {}
+_WRITERS: dict[str, tuple[Writer, str]] = {}
+
+
+def register_reader(*extensions: str):
+    def wrap(func: Reader) -> Reader:
+        for ext in extensions:
+            _READERS[ext.lower()] = func
+        return func
+    return wrap
+
+
+def register_writer(name: str, suffix: str):
+    def wrap(func: Writer) -> Writer:
+        _WRITERS[name] = (func, suffix)
+        return func
+    return wrap
+
+
+def _extension(path: Path) -> str:
+    name = path.name.lower()
+    for ext in sorted(_READERS, key=len, reverse=True):
+        if name.endswith("." + ext):
+            return ext
+    return path.suffix.lower().lstrip(".")
+
+
+def read_file(path, **options) -> MeshSource:
+    """Read any supported scene file; errors name the file and the problem."""
+    _load_plugins()
+    path = Path(path)
+    if not path.exists():
+        raise InputFileError(path, "no such file")
+    if path.is_dir():
+        raise InputFileError(path, "is a directory, not a mesh file")
+    if not os.access(path, os.R_OK):
+        raise InputFileError(path, "cannot be read (permission denied)")
+    if path.stat().st_size == 0:
+        raise InputFileError(path, "is empty")
+    ext = _extension(path)
+    reader = _READERS.get(ext)
+    if reader is None:
+        raise InputFileError(
+            path, f"unsupported format '.{ext}'; supported: {', '.join(supported_extensions())}")
+    return reader(path, **options)
+
+
+def supported_extensions() -> list[str]:
+    _load_plugins()
+    return sorted(_READERS)
+
+
+def writer(name: str) -> tuple[Writer, str]:
+    _load_plugins()
+    try:
+        return _WRITERS[name]
+    except KeyError:
+        from ..errors import ParameterError
+        raise ParameterError(
+            f"unknown export format {name!r}; formats: {', '.join(sorted(_WRITERS))}") from None
+
+
+def writer_names() -> list[str]:
+    _load_plugins()
+    return sorted(_WRITERS)
+
+
+def _load_plugins() -> None:
+    # Importing the modules registers their readers and writers.
+    from . import meshes  # noqa: F401

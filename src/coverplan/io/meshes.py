@@ -1,0 +1,49 @@
+"""Mesh files through trimesh: OBJ, PLY, STL, OFF, GLB/glTF (several objects each)."""
+
+from __future__ import annotations
+
+import numpy as np
+import trimesh
+
+from ..errors import InputFileError
+from . import MeshSource, register_reader
+
+# glTF is y-up by specification; everything else is taken as z-up unless told.
+_DEFAULT_UP = {"glb": "y", "gltf": "y"}
+_Y_UP_TO_Z_UP = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]])
+
+
+@register_reader("obj", "ply", "stl", "off", "glb", "gltf")
+def read_mesh(path, up_axis: str | None = None, **_ignored) -> MeshSource:
+    ext = path.suffix.lower().lstrip(".")
+    try:
+        loaded = trimesh.load(str(path), force="scene", process=False)
+    except Exception as exc:  # trimesh raises many types on malformed files
+        raise InputFileError(path, f"cannot be read as .{ext} ({_short(exc)})") from None
+    up = (up_axis or _DEFAULT_UP.get(ext, "z")).lower()
+    if up not in ("y", "z"):
+        raise InputFileError(path, f"up axis must be 'y' or 'z', got {up_axis!r}")
+    meshes = []
+    try:
+        for node in loaded.graph.nodes_geometry:
+            transform, geometry_name = loaded.graph[node]
+            geometry = loaded.geometry.get(geometry_name)
+            if not isinstance(geometry, trimesh.Trimesh) or len(geometry.faces) == 0:
+                continue
+            mesh = trimesh.Trimesh(vertices=np.array(geometry.vertices, dtype=float),
+                                   faces=np.array(geometry.faces, dtype=np.int64), process=False)
+            mesh.apply_transform(transform)
+            if up == "y":
+                mesh.apply_transform(_Y_UP_TO_Z_UP)
+            meshes.append((str(node), mesh))
+    except Exception as exc:
+        raise InputFileError(path, f"cannot be read as .{ext} ({_short(exc)})") from None
+    if not meshes:
+        raise InputFileError(path, "holds no triangles (no faces in any object)")
+    notes = [f"{path.name}: read as {up}-up"] if up == "y" else []
+    return MeshSource(meshes=meshes, notes=notes)
+
+
+def _short(exc: Exception) -> str:
+    text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+    return text[:120]

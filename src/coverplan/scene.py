@@ -1,0 +1,190 @@
+"""Scene: target and obstacle meshes in a local metric frame, with ground and origin."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
+from typing import Iterable, Sequence
+
+import numpy as np
+import trimesh
+
+from .errors import InputFileError, ParameterError
+from .io import read_file
+from .prepare import prepare_mesh
+
+UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "ft": 0.3048, "in": 0.0254}
+# Coordinates beyond this (m) are shifted to a local origin: Embree and manifold3d work
+# in float32, which keeps only centimetres at 10^5 m.
+LOCAL_ORIGIN_THRESHOLD = 1.0e4
+
+
+@dataclass
+class MeshPart:
+    """One mesh of the scene and what it is."""
+
+    name: str
+    role: str  # "target" | "obstacle"
+    mesh: trimesh.Trimesh
+    source: str = ""
+
+
+@dataclass
+class Scene:
+    """Targets and obstacles in local coordinates (source coordinates minus ``origin``)."""
+
+    parts: list[MeshPart]
+    ground_z: float | None = None
+    crs: str | None = None
+    origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    notes: list[str] = field(default_factory=list)
+    _clearance: dict = field(default_factory=dict, init=False, repr=False)
+
+    def __post_init__(self):
+        if not any(p.role == "target" for p in self.parts):
+            raise InputFileError("scene", "no target mesh was given")
+        self.origin = np.asarray(self.origin, dtype=float)
+        if self.ground_z is None:
+            self.ground_z = float(min(p.mesh.bounds[0, 2] for p in self.targets))
+
+    @property
+    def targets(self) -> list[MeshPart]:
+        return [p for p in self.parts if p.role == "target"]
+
+    @property
+    def obstacles(self) -> list[MeshPart]:
+        return [p for p in self.parts if p.role == "obstacle"]
+
+    @property
+    def meshes(self) -> list[trimesh.Trimesh]:
+        return [p.mesh for p in self.parts]
+
+    @property
+    def target_indices(self) -> np.ndarray:
+        return np.array([i for i, p in enumerate(self.parts) if p.role == "target"], dtype=int)
+
+    def bounds(self, role: str | None = None) -> np.ndarray:
+        parts = self.parts if role is None else [p for p in self.parts if p.role == role]
+        b = np.array([p.mesh.bounds for p in parts])
+        return np.array([b[:, 0].min(axis=0), b[:, 1].max(axis=0)])
+
+    @cached_property
+    def extent(self) -> float:
+        return float(np.ptp(self.bounds(), axis=0).max())
+
+    @cached_property
+    def epsilon(self) -> float:
+        """Offset for ray origins on surfaces: above float32 noise at this scene's size."""
+        reach = float(np.abs(self.bounds()).max())
+        return max(1e-3, 2e-6 * reach)
+
+    @cached_property
+    def rays(self):
+        from .raycast import RayCaster
+        return RayCaster(self.meshes, epsilon=self.epsilon)
+
+    def clearance_model(self, security: float):
+        """Clearance queries tuned for one security distance (cached per distance)."""
+        from .safety import ClearanceModel
+        edge = float(np.clip(security / 2.0, self.extent / 2000.0, max(self.extent / 20.0, 1e-3)))
+        key = round(edge, 6)
+        if key not in self._clearance:
+            self._clearance[key] = ClearanceModel(self.meshes, rays=self.rays, cover_edge=edge)
+        return self._clearance[key]
+
+    def describe(self, index: int) -> str:
+        part = self.parts[index]
+        return f"{part.role} '{part.name}'"
+
+    def to_source(self, points) -> np.ndarray:
+        """Local coordinates back to the source frame."""
+        return np.asarray(points, dtype=float) + self.origin
+
+
+def _named(path, source_meshes, role) -> list[MeshPart]:
+    stem = Path(path).stem
+    many = len(source_meshes) > 1
+    return [MeshPart(f"{stem}:{name}" if many else stem, role, mesh, str(path))
+            for name, mesh in source_meshes]
+
+
+def load_scene(targets: str | Path | Sequence[str | Path],
+               obstacles: Iterable[str | Path] = (),
+               *, units: str = "m", ground: float | None = None,
+               target_names: Sequence[str] | None = None,
+               up_axis: str | None = None) -> Scene:
+    """Read target and obstacle files into a Scene in metres.
+
+    ``target_names`` picks, inside multi-object target files (GLB, OBJ), the objects that are
+    targets; the file's other objects become obstacles. ``ground`` is a height in metres in the
+    source frame. Far-away coordinates are moved to a local origin (kept in ``Scene.origin``).
+    """
+    if isinstance(targets, (str, Path)):
+        targets = [targets]
+    targets = list(targets)
+    if not targets:
+        raise ParameterError("give at least one target mesh")
+    try:
+        factor = UNITS[units]
+    except KeyError:
+        raise ParameterError(f"unknown units {units!r}; use one of {', '.join(UNITS)}") from None
+    parts: list[MeshPart] = []
+    notes: list[str] = []
+    crs = None
+    wanted = set(target_names or ())
+    found_names: set[str] = set()
+    for path in targets:
+        src = read_file(path, up_axis=up_axis)
+        notes += src.notes
+        crs = crs or src.crs
+        named = src.target_names or (list(wanted) if wanted else None)
+        for part in _named(path, src.meshes, "target"):
+            object_name = part.name.split(":", 1)[-1]
+            if named is not None and object_name not in named and part.name not in named:
+                part.role = "obstacle"
+            else:
+                found_names.add(object_name)
+            parts.append(part)
+    missing = wanted - found_names
+    if missing:
+        available = sorted({p.name.split(':', 1)[-1] for p in parts})
+        raise ParameterError(f"no object named {', '.join(sorted(missing))} in the target files; "
+                             f"objects: {', '.join(available[:12])}")
+    for path in obstacles:
+        src = read_file(path, up_axis=up_axis)
+        notes += src.notes
+        parts += _named(path, src.meshes, "obstacle")
+    for part in parts:
+        part.mesh.apply_scale(factor)
+    ground_m = None if ground is None else float(ground)
+    return build_scene(parts, ground=ground_m, crs=crs, notes=notes)
+
+
+def build_scene(parts: Sequence[MeshPart], *, ground: float | None = None, crs: str | None = None,
+                notes: Sequence[str] = ()) -> Scene:
+    """Prepare meshes already in metres and move far-away coordinates to a local origin."""
+    notes = list(notes)
+    prepared = []
+    for part in parts:
+        mesh, part_notes = prepare_mesh(part.mesh, part.name)
+        prepared.append(MeshPart(part.name, part.role, mesh, part.source))
+        notes += part_notes
+    origin = np.zeros(3)
+    corner = np.array([p.mesh.bounds for p in prepared if p.role == "target"]).reshape(-1, 3)
+    if len(corner) and np.abs(corner).max() > LOCAL_ORIGIN_THRESHOLD:
+        center = corner.mean(axis=0)
+        origin = np.where(np.abs(center) > LOCAL_ORIGIN_THRESHOLD, np.round(center), 0.0)
+        for part in prepared:
+            part.mesh.apply_translation(-origin)
+        notes.append(f"moved to a local origin at {origin.tolist()} (source coordinates are far from 0)")
+    ground_local = None if ground is None else float(ground) - origin[2]
+    return Scene(prepared, ground_z=ground_local, crs=crs, origin=origin, notes=notes)
+
+
+def scene_from_meshes(targets: Sequence[trimesh.Trimesh], obstacles: Sequence[trimesh.Trimesh] = (),
+                      ground: float | None = None) -> Scene:
+    """A Scene from in-memory meshes (metres), named target0.., obstacle0.."""
+    parts = [MeshPart(f"target{i}", "target", m.copy()) for i, m in enumerate(targets)]
+    parts += [MeshPart(f"obstacle{i}", "obstacle", m.copy()) for i, m in enumerate(obstacles)]
+    return build_scene(parts, ground=ground)
