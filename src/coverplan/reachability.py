@@ -1,0 +1,141 @@
+"""Can any safe position image a surface point? Probes in the incidence cone answer it.
+
+For each sample we try positions along directions within ``max_incidence_deg`` of its
+normal, at ranges between the security distance and d_opt. A probe works when it is above
+the minimum altitude, its line of sight to the sample is clear, the gimbal can aim at the
+sample from there, and it keeps the security distance from every mesh. A clear line of
+sight from the outer side of the surface also proves the probe is outside every mesh.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+OK, LOW, GIMBAL, OCCLUDED, UNSAFE = 0, 1, 2, 3, 4
+
+
+def cone_directions(half_angle_deg: float, count: int) -> np.ndarray:
+    """``count`` unit vectors spread over the cap of half-angle ``half_angle_deg`` about +z."""
+    k = np.arange(count) + 0.5
+    cos_min = np.cos(np.radians(half_angle_deg))
+    z = 1.0 - (1.0 - cos_min) * k / count
+    phi = k * np.pi * (3.0 - np.sqrt(5.0))
+    r = np.sqrt(np.maximum(1.0 - z * z, 0.0))
+    cap = np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
+    return np.vstack([[0.0, 0.0, 1.0], cap])
+
+
+def tangent_frames(normals) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit tangents per normal, so (t1, t2, n) is right-handed."""
+    normals = np.asarray(normals, dtype=float)
+    helper = np.where(np.abs(normals[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
+    t1 = np.cross(helper, normals)
+    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
+    return t1, np.cross(normals, t1)
+
+
+@dataclass
+class ViewLimits:
+    """What a viewpoint must satisfy, shared by the evaluator and the planner."""
+
+    security: float
+    d_opt: float
+    max_incidence_deg: float
+    min_z: float
+    pitch_range_deg: tuple[float, float]
+    vfov_deg: float
+
+    def elevation_ok(self, rays) -> np.ndarray:
+        """Whether the gimbal can frame a point seen along ``rays`` (point -> camera)."""
+        elevation = -np.degrees(np.arcsin(np.clip(rays[:, 2], -1, 1)))  # of the point, from the camera
+        lo, hi = self.pitch_range_deg
+        half = self.vfov_deg / 2.0
+        return (elevation >= lo - half) & (elevation <= hi + half)
+
+
+def probe_positions(points, normals, sample_index, limits: ViewLimits, directions: np.ndarray,
+                    range_fractions) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Probe positions for the given samples: (sample index, position, unit ray) per probe."""
+    sample_index = np.asarray(sample_index, dtype=np.int64)
+    t1, t2 = tangent_frames(normals[sample_index])
+    n = normals[sample_index]
+    world = (directions[None, :, 0:1] * t1[:, None] + directions[None, :, 1:2] * t2[:, None]
+             + directions[None, :, 2:3] * n[:, None])  # (S, D, 3)
+    ranges = limits.security + (limits.d_opt - limits.security) * np.asarray(range_fractions, float)
+    pos = points[sample_index][:, None, None, :] + world[:, :, None, :] * ranges[None, None, :, None]
+    rays = np.broadcast_to(world[:, :, None, :], pos.shape)
+    owner = np.broadcast_to(sample_index[:, None, None], pos.shape[:3])
+    return owner.reshape(-1), pos.reshape(-1, 3), rays.reshape(-1, 3)
+
+
+def test_probes(scene, points, normals, owner, positions, rays, limits: ViewLimits):
+    """Status per probe (OK / LOW / GIMBAL / OCCLUDED / UNSAFE) and the mesh that caused it."""
+    status = np.full(len(positions), OK, dtype=np.int8)
+    culprit = np.full(len(positions), -1, dtype=np.int64)
+    status[positions[:, 2] < limits.min_z] = LOW
+    status[(status == OK) & ~limits.elevation_ok(rays)] = GIMBAL
+    start = points[owner] + normals[owner] * scene.epsilon * 4
+    blocked = scene.rays.segments_blocked(start, positions)
+    status[blocked] = OCCLUDED
+    live = np.flatnonzero(status == OK)
+    if len(live):
+        clearance = scene.clearance_model(limits.security)
+        safe = clearance.points_clear(positions[live], limits.security, check_inside=False)
+        status[live[~safe]] = UNSAFE
+        culprit[live[~safe]] = clearance.kd_distance(positions[live[~safe]])[1]
+    occ = np.flatnonzero(blocked)
+    if len(occ):
+        length = np.linalg.norm(positions[occ] - start[occ], axis=1)
+        _d, mesh, _f = scene.rays.first_hit(start[occ], positions[occ] - start[occ], max_distance=length)
+        culprit[occ] = mesh
+    return status, culprit
+
+
+@dataclass
+class Reachability:
+    reachable: np.ndarray  # bool per sample
+    reason: list  # per sample: "" when reachable, else why not
+
+
+def reachability(scene, samples, limits: ViewLimits, n_directions: int = 48,
+                 range_fractions=(0.1, 0.4, 0.7, 1.0)) -> Reachability:
+    """Which samples some safe position within d_opt can image, and why not for the rest."""
+    points, normals = samples.points, samples.normals
+    n = len(points)
+    reachable = np.zeros(n, dtype=bool)
+    # Stage 1: straight out along the normal at mid range settles most samples.
+    everyone = np.arange(n)
+    owner, pos, rays = probe_positions(points, normals, everyone, limits, np.array([[0.0, 0.0, 1.0]]),
+                                       [0.5])
+    status, _ = test_probes(scene, points, normals, owner, pos, rays, limits)
+    reachable[owner[status == OK]] = True
+    # Stage 2: the whole cone for the rest.
+    rest = np.flatnonzero(~reachable)
+    reason = [""] * n
+    if len(rest):
+        owner, pos, rays = probe_positions(points, normals, rest, limits,
+                                           cone_directions(limits.max_incidence_deg * 0.995, n_directions),
+                                           range_fractions)
+        status, culprit = test_probes(scene, points, normals, owner, pos, rays, limits)
+        reachable[owner[status == OK]] = True
+        for s in np.flatnonzero(~reachable[rest]):
+            k = rest[s]
+            mine = owner == k
+            reason[k] = explain(scene, status[mine], culprit[mine])
+    return Reachability(reachable, reason)
+
+
+def explain(scene, status, culprit) -> str:
+    """One line saying why none of a sample's probes worked."""
+    def most_common(mask):
+        c = culprit[mask & (culprit >= 0)]
+        return scene.describe(int(np.bincount(c).argmax())) if len(c) else "a mesh"
+    if (status == UNSAFE).any():
+        return f"no viewpoint within d_opt keeps the security distance from {most_common(status == UNSAFE)}"
+    if (status == LOW).any():
+        return "visible only from below the minimum altitude"
+    if (status == GIMBAL).any():
+        return "visible only at a gimbal pitch outside its range"
+    return f"occluded by {most_common(status == OCCLUDED)}"

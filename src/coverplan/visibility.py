@@ -1,0 +1,106 @@
+"""Which cameras image which surface points: frustum, occlusion, incidence and range.
+
+A camera at ``c`` with axes (right, up, forward) images point ``p`` with normal ``n`` when
+1. ``p`` is inside the frustum (both half field-of-view angles),
+2. the segment ``p -> c`` hits no mesh,
+3. the angle between ``n`` and ``c - p`` is at most ``max_incidence_deg``,
+4. ``|c - p| <= max_range`` (the range at which the GSD equals the target).
+``shrink`` tightens 1, 3 and 4 by a fraction, so a plan made with it still holds between
+its samples.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.spatial import cKDTree
+
+from .orientation import camera_axes
+
+
+def imaging_pairs(positions, headings, pitches, camera, points, normals, rays, *,
+                  max_range: float, max_incidence_deg: float, shrink: float = 0.0,
+                  offset: float = 1e-3, cameras_per_chunk: int = 256, progress=None):
+    """All (camera, point) pairs where the camera images the point, with their ranges.
+
+    Returns ``(camera_index, point_index, range)`` arrays.
+    """
+    positions = np.asarray(positions, dtype=float).reshape(-1, 3)
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    normals = np.asarray(normals, dtype=float).reshape(-1, 3)
+    right, up, forward = camera_axes(headings, pitches)
+    right, up, forward = (np.atleast_2d(a) for a in (right, up, forward))
+    keep = 1.0 - shrink
+    tan_h, tan_v = camera.tan_half_hfov * keep, camera.tan_half_vfov * keep
+    cos_inc = np.cos(np.radians(max_incidence_deg * keep))
+    reach = max_range * keep
+    empty = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
+    if len(positions) == 0 or len(points) == 0:
+        return empty
+    point_tree = cKDTree(points)
+    out_i, out_j, out_r = [], [], []
+    for lo in range(0, len(positions), cameras_per_chunk):
+        hi = min(lo + cameras_per_chunk, len(positions))
+        pairs = cKDTree(positions[lo:hi]).sparse_distance_matrix(point_tree, reach, output_type="ndarray")
+        i = pairs["i"].astype(np.int64) + lo
+        j = pairs["j"].astype(np.int64)
+        v = points[j] - positions[i]
+        dist = np.linalg.norm(v, axis=1)
+        z = np.einsum("ij,ij->i", v, forward[i])
+        x = np.einsum("ij,ij->i", v, right[i])
+        y = np.einsum("ij,ij->i", v, up[i])
+        facing = -np.einsum("ij,ij->i", v, normals[j]) >= cos_inc * dist
+        ok = (z > 0) & (np.abs(x) <= tan_h * z) & (np.abs(y) <= tan_v * z) & facing & (dist > 0)
+        i, j, dist = i[ok], j[ok], dist[ok]
+        if len(i):
+            blocked = rays.segments_blocked(points[j] + normals[j] * offset, positions[i])
+            i, j, dist = i[~blocked], j[~blocked], dist[~blocked]
+        out_i.append(i)
+        out_j.append(j)
+        out_r.append(dist)
+        if progress is not None:
+            progress(hi - lo)
+    return np.concatenate(out_i), np.concatenate(out_j), np.concatenate(out_r)
+
+
+def visibility_matrix(n_cameras: int, n_points: int, pairs) -> sp.csr_matrix:
+    """Boolean sparse matrix (cameras x points) from ``imaging_pairs`` output."""
+    i, j, _ = pairs
+    data = np.ones(len(i), dtype=bool)
+    return sp.csr_matrix((data, (i, j)), shape=(n_cameras, n_points))
+
+
+def view_rays(cam_index, point_index, positions, points) -> np.ndarray:
+    """Unit vectors from each point to the camera imaging it."""
+    v = np.asarray(positions)[cam_index] - np.asarray(points)[point_index]
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def widest_pair_angle(point_index, rays, n_points: int, max_block: int = 4_000_000) -> np.ndarray:
+    """Per point, the largest angle (deg) between two of its view rays; 0 with < 2 views."""
+    point_index = np.asarray(point_index, dtype=np.int64)
+    rays = np.asarray(rays, dtype=float).reshape(-1, 3)
+    widest = np.zeros(n_points)
+    if len(point_index) == 0:
+        return widest
+    order = np.argsort(point_index, kind="stable")
+    sorted_rays = rays[order]
+    counts = np.bincount(point_index, minlength=n_points)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    many = np.flatnonzero(counts >= 2)
+    # Pad points with similar view counts together so the k x k blocks stay small.
+    size_class = np.ceil(np.log2(counts[many])).astype(int)
+    for c in np.unique(size_class):
+        members = many[size_class == c]
+        k = int(counts[members].max())
+        step = max(1, max_block // (k * k))
+        for lo in range(0, len(members), step):
+            block = members[lo:lo + step]
+            slot = np.arange(k)
+            valid = slot[None, :] < counts[block][:, None]
+            idx = np.where(valid, starts[block][:, None] + slot[None, :], 0)
+            vec = np.where(valid[..., None], sorted_rays[idx], np.nan)
+            cos = np.einsum("pad,pbd->pab", vec, vec)
+            cos = np.where(np.isnan(cos), 1.0, cos)
+            widest[block] = np.degrees(np.arccos(np.clip(cos.min(axis=(1, 2)), -1.0, 1.0)))
+    return widest
