@@ -1,0 +1,233 @@
+"""The measuring instrument: does this route cover this building, safely?
+
+Everything here is recomputed from the route file and the scene (its own surface samples,
+ray casts and FCL distance queries); nothing is read from the planner's bookkeeping.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .reachability import ViewLimits, reachability
+from .route import Route
+from .surface import CLASS_NAMES, SurfaceSamples, default_spacing, sample_surface
+from .visibility import imaging_pairs, view_rays, widest_pair_angle
+
+ORIENTATION_TOLERANCE_DEG = 0.5
+
+
+def view_limits(route: Route, scene) -> ViewLimits:
+    """The viewpoint rules a route declares in its params, in the scene's frame."""
+    ground = route.params.get("ground_z_m", scene.ground_z)
+    min_alt = route.params.get("min_altitude_m", route.security)
+    lo, hi = route.params.get("gimbal_pitch_range_deg", (-90.0, 90.0))
+    return ViewLimits(security=route.security, d_opt=route.d_opt,
+                      max_incidence_deg=float(route.param("max_incidence_deg")),
+                      min_z=float(ground) + float(min_alt), pitch_range_deg=(float(lo), float(hi)),
+                      vfov_deg=route.camera.vfov_deg)
+
+
+@dataclass
+class Evaluation:
+    """Per-sample results and the metrics of DESIGN.md for one route."""
+
+    route: Route
+    samples: SurfaceSamples
+    views: np.ndarray
+    widest_deg: np.ndarray
+    covered: np.ndarray
+    reachable: np.ndarray
+    reasons: list
+    pairs: tuple
+    segment_clearance: np.ndarray
+    segment_mesh: np.ndarray
+    waypoint_inside: np.ndarray
+    metrics: dict = field(default_factory=dict)
+
+    @property
+    def safe(self) -> bool:
+        return bool(self.metrics["safe"])
+
+    @property
+    def coverage_pct(self) -> float:
+        return float(self.metrics["coverage_pct"])
+
+    def table(self) -> str:
+        return format_metrics(self.metrics)
+
+
+def evaluate(route: Route, scene, spacing: float | None = None, samples: SurfaceSamples | None = None,
+             progress=None) -> Evaluation:
+    """Judge a route against a scene. Samples default to the planner's spacing and seed."""
+    limits = view_limits(route, scene)
+    if samples is None:
+        if spacing is None:
+            spacing = route.params.get("sample_spacing_m") or default_spacing(scene, route.d_opt)
+        samples = sample_surface(scene, spacing)
+    shots = route.shots
+    pairs = imaging_pairs(route.positions[shots], route.heading_deg[shots], route.pitch_deg[shots],
+                          route.camera, samples.points, samples.normals, scene.rays,
+                          max_range=route.d_opt, max_incidence_deg=float(route.param("max_incidence_deg")),
+                          offset=scene.epsilon * 4, progress=progress)
+    cam, pt, rng = pairs
+    n = len(samples)
+    views = np.bincount(pt, minlength=n)
+    widest = widest_pair_angle(pt, view_rays(cam, pt, route.positions[shots], samples.points), n)
+    min_views = int(route.param("min_views"))
+    min_tri = float(route.param("min_triangulation_deg"))
+    covered = (views >= min_views) & (widest >= min_tri)
+    reach = reachability(scene, samples, limits)
+
+    # Safety along the whole polyline: exact FCL distances per segment, inside tests per waypoint.
+    positions = route.positions
+    clearance = scene.clearance_model(route.security)
+    inside = scene.rays.inside(positions) >= 0
+    if len(positions) > 1:
+        seg_d, seg_mesh = clearance.segment_distance(positions[:-1], positions[1:])
+    else:
+        seg_d, seg_mesh = clearance.point_distance(positions)
+    seg_d = seg_d.copy()
+    for k in np.flatnonzero(inside):  # a waypoint inside a mesh has no clearance at all
+        seg_d[max(k - 1, 0)] = 0.0
+        seg_d[min(k, len(seg_d) - 1)] = 0.0
+    ev = Evaluation(route, samples, views, widest, covered, reach.reachable, reach.reason, pairs,
+                    seg_d, seg_mesh, inside)
+    ev.metrics = _metrics(ev, scene, limits)
+    return ev
+
+
+def _stats(values) -> dict:
+    values = np.asarray(values, dtype=float)
+    if len(values) == 0:
+        return {"min": None, "max": None, "mean": None}
+    return {"min": float(values.min()), "max": float(values.max()), "mean": float(values.mean())}
+
+
+def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
+    route, samples = ev.route, ev.samples
+    area = samples.area
+    reach = ev.reachable
+    reachable_area = float(area[reach].sum())
+    covered_area = float(area[ev.covered & reach].sum())
+    shots = route.shots
+    shot_pos = route.positions[shots]
+    total_area = samples.total_area
+    security = route.security
+    tol = 1e-6 * max(1.0, security)
+    unsafe = np.flatnonzero(ev.segment_clearance < security - tol)
+    low = np.flatnonzero(route.positions[:, 2] < limits.min_z - tol)
+    orient = route.orientation_errors_deg()
+    seg_k = int(np.argmin(ev.segment_clearance)) if len(ev.segment_clearance) else None
+    p_outliers = (ev.views >= 2) & (ev.widest_deg < float(route.param("min_triangulation_deg")))
+
+    unreachable = defaultdict(lambda: {"count": 0, "area_m2": 0.0, "points": []})
+    for k in np.flatnonzero(~reach):
+        g = unreachable[ev.reasons[k]]
+        g["count"] += 1
+        g["area_m2"] += float(area[k])
+        g["points"].append(samples.points[k])
+    unreachable_groups = []
+    for reason, g in sorted(unreachable.items(), key=lambda kv: -kv[1]["area_m2"]):
+        pts = np.array(g["points"])
+        unreachable_groups.append({"reason": reason, "count": g["count"], "area_m2": g["area_m2"],
+                                   "centroid": pts.mean(axis=0).tolist(),
+                                   "bounds": [pts.min(axis=0).tolist(), pts.max(axis=0).tolist()]})
+    missed = reach & ~ev.covered
+    by_class = {}
+    for k, name in enumerate(CLASS_NAMES):
+        sel = (samples.kind == k) & reach
+        if sel.any():
+            by_class[name] = 100.0 * float(area[sel & ev.covered].sum()) / float(area[sel].sum())
+    worst_where = None
+    if seg_k is not None and len(route.positions) > 1:
+        worst_where = scene.clearance_model(route.security).closest_point_on_segment(route.positions[seg_k],
+                                                               route.positions[seg_k + 1])[0].tolist()
+    return {
+        "shots": int(len(shots)),
+        "waypoints": int(len(route)),
+        "path_length_m": route.path_length,
+        "surface_area_m2": total_area,
+        "reachable_area_m2": reachable_area,
+        "covered_area_m2": covered_area,
+        "coverage_pct": 100.0 * covered_area / reachable_area if reachable_area > 0 else 0.0,
+        "coverage_by_class_pct": by_class,
+        "uncovered_reachable_area_m2": float(area[missed].sum()),
+        "uncovered_reachable_samples": int(missed.sum()),
+        "unreachable_area_m2": float(area[~reach].sum()),
+        "unreachable_samples": int((~reach).sum()),
+        "unreachable": unreachable_groups,
+        "left_out_area_m2": dict(samples.left_out),
+        "samples": int(len(samples)),
+        "sample_spacing_m": samples.spacing,
+        "nt_imaged": _stats(ev.views[reach]),
+        "d_image_m": _stats(ev.pairs[2]),
+        "db_viewpoints_m": _stats(np.linalg.norm(np.diff(shot_pos, axis=0), axis=1)),
+        "p_outliers": int(p_outliers.sum()),
+        "shots_per_m2": len(shots) / total_area,
+        "path_m_per_m2": route.path_length / total_area,
+        "min_clearance_m": float(ev.segment_clearance.min()) if len(ev.segment_clearance) else None,
+        "min_clearance_at": worst_where,
+        "min_clearance_mesh": scene.describe(int(ev.segment_mesh[seg_k])) if seg_k is not None and ev.segment_mesh[seg_k] >= 0 else None,
+        "unsafe_segments": [{"segment": int(k), "from": int(k), "to": int(k + 1),
+                             "clearance_m": float(ev.segment_clearance[k]),
+                             "mesh": scene.describe(int(ev.segment_mesh[k])) if ev.segment_mesh[k] >= 0 else None}
+                            for k in unsafe[:50]],
+        "unsafe_segment_count": int(len(unsafe)),
+        "waypoints_inside_meshes": int(ev.waypoint_inside.sum()),
+        "altitude_violations": int(len(low)),
+        "min_altitude_z_m": limits.min_z,
+        "orientation_mismatches": int((orient > ORIENTATION_TOLERANCE_DEG).sum()),
+        "returns_to_start": bool(np.linalg.norm(route.positions[-1] - route.positions[0]) < 1e-6),
+        "safe": bool(len(unsafe) == 0 and len(low) == 0 and not ev.waypoint_inside.any()),
+        "security_m": security,
+        "d_opt_m": route.d_opt,
+    }
+
+
+def _fmt(v, unit="") -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, float):
+        return f"{v:,.2f}{unit}"
+    return f"{v}{unit}"
+
+
+def format_metrics(m: dict) -> str:
+    """A terminal table of the metrics."""
+    def stats(name, s, unit=""):
+        return (name, f"min {_fmt(s['min'], unit)}  max {_fmt(s['max'], unit)}  mean {_fmt(s['mean'], unit)}")
+    rows = [
+        ("safe", "yes" if m["safe"] else "NO"),
+        ("min clearance", f"{_fmt(m['min_clearance_m'], ' m')} (security {m['security_m']:.2f} m"
+                          + (f", nearest {m['min_clearance_mesh']})" if m.get("min_clearance_mesh") else ")")),
+        ("unsafe segments", str(m["unsafe_segment_count"])),
+        ("waypoints inside meshes", str(m["waypoints_inside_meshes"])),
+        ("altitude violations", str(m["altitude_violations"])),
+        ("orientation mismatches", str(m["orientation_mismatches"])),
+        ("coverage of reachable", f"{m['coverage_pct']:.2f} %"),
+        ("reachable surface", f"{m['reachable_area_m2']:,.1f} of {m['surface_area_m2']:,.1f} m2"),
+        ("uncovered reachable", f"{m['uncovered_reachable_area_m2']:,.1f} m2 ({m['uncovered_reachable_samples']} samples)"),
+        ("unreachable", f"{m['unreachable_area_m2']:,.1f} m2 ({m['unreachable_samples']} samples)"),
+    ]
+    for g in m["unreachable"][:5]:
+        c = g["centroid"]
+        rows.append(("  why", f"{g['reason']}: {g['count']} samples, {g['area_m2']:.1f} m2 "
+                              f"around ({c[0]:.1f}, {c[1]:.1f}, {c[2]:.1f})"))
+    for cause, a in m["left_out_area_m2"].items():
+        rows.append((f"left out ({cause})", f"{a:,.1f} m2"))
+    rows += [
+        ("shots", str(m["shots"])),
+        ("path length", _fmt(m["path_length_m"], " m")),
+        stats("nt-imaged", m["nt_imaged"]),
+        stats("d-image", m["d_image_m"], " m"),
+        stats("db-viewpoints", m["db_viewpoints_m"], " m"),
+        ("p-outliers", str(m["p_outliers"])),
+        ("shots per m2", f"{m['shots_per_m2']:.4f}"),
+        ("path m per m2", f"{m['path_m_per_m2']:.4f}"),
+        ("samples", f"{m['samples']} at {m['sample_spacing_m']:.2f} m spacing"),
+    ]
+    width = max(len(r[0]) for r in rows)
+    return "\n".join(f"{name.ljust(width)}  {value}" for name, value in rows)

@@ -1,0 +1,44 @@
+"""Progress bars on a terminal, stage timings always, and per-stage log lines with --verbose."""
+
+from __future__ import annotations
+
+import sys
+import time
+from contextlib import contextmanager
+
+
+class Progress:
+    """Reports long stages. Bars only when ``bars`` and the stream is a terminal."""
+
+    def __init__(self, bars: bool = False, verbose: bool = False, stream=None):
+        self.stream = stream or sys.stderr
+        self.bars = bars and hasattr(self.stream, "isatty") and self.stream.isatty()
+        self.verbose = verbose
+        self.timings: dict[str, float] = {}
+
+    @contextmanager
+    def stage(self, name: str, total: int | None = None, unit: str = "it"):
+        """Time a stage; yields ``update(n)`` to advance its bar."""
+        start = time.perf_counter()
+        bar = None
+        if self.bars:
+            from tqdm import tqdm
+            bar = tqdm(total=total, desc=name, unit=unit, file=self.stream, leave=False,
+                       dynamic_ncols=True)
+        try:
+            yield (bar.update if bar is not None else _ignore)
+        finally:
+            if bar is not None:
+                bar.close()
+            elapsed = time.perf_counter() - start
+            self.timings[name] = self.timings.get(name, 0.0) + elapsed
+            if self.verbose:
+                print(f"[coverplan] {name}: {elapsed:.2f} s", file=self.stream)
+
+    def note(self, text: str) -> None:
+        if self.verbose:
+            print(f"[coverplan] {text}", file=self.stream)
+
+
+def _ignore(_n: int = 1) -> None:
+    return None

@@ -1,0 +1,240 @@
+"""Route: the flight as DESIGN.md's route file describes it, with save / load / validate."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .camera import Camera
+from .errors import ParameterError, RouteFormatError
+from .orientation import angle_between_deg, view_direction
+
+FORMAT = "coverplan-route"
+VERSION = 1
+LEGS = ("initial", "coverage", "final")
+DEFAULT_PARAMS = {"min_views": 2, "min_triangulation_deg": 5.0, "max_incidence_deg": 70.0}
+
+
+@dataclass
+class Route:
+    """Waypoints (local metres), the camera and parameters, and what the plan left uncovered."""
+
+    positions: np.ndarray  # (n, 3)
+    shot: np.ndarray  # (n,) bool
+    heading_deg: np.ndarray  # (n,)
+    pitch_deg: np.ndarray  # (n,)
+    leg: list[str]
+    camera: Camera
+    params: dict
+    view_dir: np.ndarray | None = None  # (n, 3); derived from heading/pitch when None
+    frame: dict = field(default_factory=lambda: {"crs": None, "origin": [0.0, 0.0, 0.0]})
+    uncovered: list[dict] = field(default_factory=list)
+    metrics: dict = field(default_factory=dict)
+    extra: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        self.positions = np.asarray(self.positions, dtype=float).reshape(-1, 3)
+        self.shot = np.asarray(self.shot, dtype=bool)
+        self.heading_deg = np.mod(np.asarray(self.heading_deg, dtype=float), 360.0)
+        self.pitch_deg = np.asarray(self.pitch_deg, dtype=float)
+        if self.view_dir is None:
+            self.view_dir = view_direction(self.heading_deg, self.pitch_deg)
+        self.view_dir = np.asarray(self.view_dir, dtype=float).reshape(-1, 3)
+        self.leg = list(self.leg)
+
+    def __len__(self) -> int:
+        return len(self.positions)
+
+    @property
+    def shots(self) -> np.ndarray:
+        return np.flatnonzero(self.shot)
+
+    @property
+    def path_length(self) -> float:
+        return float(np.linalg.norm(np.diff(self.positions, axis=0), axis=1).sum())
+
+    @property
+    def gsd(self) -> float:
+        return float(self.params["gsd_m"])
+
+    @property
+    def security(self) -> float:
+        return float(self.params["security_m"])
+
+    @property
+    def d_opt(self) -> float:
+        return self.camera.optimal_distance(self.gsd)
+
+    def param(self, name):
+        return self.params.get(name, DEFAULT_PARAMS.get(name))
+
+    # -- file format -----------------------------------------------------------------
+    def to_dict(self) -> dict:
+        waypoints = []
+        for k in range(len(self)):
+            waypoints.append({
+                "position": _round(self.positions[k], 4),
+                "shot": bool(self.shot[k]),
+                "view_dir": _round(self.view_dir[k], 6),
+                "heading_deg": round(float(self.heading_deg[k]), 4),
+                "gimbal_pitch_deg": round(float(self.pitch_deg[k]), 4),
+                "leg": self.leg[k],
+            })
+        d = {
+            "format": FORMAT, "version": VERSION, "units": "m",
+            "frame": {"crs": self.frame.get("crs"), "origin": [float(v) for v in self.frame.get("origin", [0, 0, 0])]},
+            "camera": self.camera.to_dict(),
+            "params": _jsonable(self.params),
+            "waypoints": waypoints,
+            "uncovered": _jsonable(self.uncovered),
+            "metrics": _jsonable(self.metrics),
+        }
+        if self.extra:
+            d["planner"] = _jsonable(self.extra)
+        return d
+
+    def save(self, path, force: bool = True) -> Path:
+        """Write the route file atomically (temporary file, then rename)."""
+        path = Path(path)
+        if path.exists() and not force:
+            raise ParameterError(f"{path} exists; pass --force to overwrite it")
+        text = json.dumps(self.to_dict(), indent=1, allow_nan=False)
+        directory = path.parent if str(path.parent) else Path(".")
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as handle:
+                handle.write(text)
+                handle.flush()
+                os.fsync(handle.fileno())
+            os.replace(tmp, path)
+        except BaseException:
+            if os.path.exists(tmp):
+                os.unlink(tmp)
+            raise
+        return path
+
+    @classmethod
+    def load(cls, path) -> "Route":
+        path = Path(path)
+        if not path.exists():
+            raise RouteFormatError(path, "no such file")
+        try:
+            data = json.loads(path.read_text(encoding="utf-8"))
+        except UnicodeDecodeError:
+            raise RouteFormatError(path, "is not UTF-8 text") from None
+        except json.JSONDecodeError as exc:
+            raise RouteFormatError(path, f"is not valid JSON ({exc.msg} at line {exc.lineno})") from None
+        return cls.from_dict(data, path)
+
+    @classmethod
+    def from_dict(cls, data, path="route") -> "Route":
+        if not isinstance(data, dict):
+            raise RouteFormatError(path, "is not a route: expected a JSON object")
+        if data.get("format") != FORMAT:
+            raise RouteFormatError(path, f"is not a route: 'format' is {data.get('format')!r}, expected {FORMAT!r}")
+        if data.get("version") != VERSION:
+            raise RouteFormatError(path, f"route version {data.get('version')!r} is not supported (expected {VERSION})")
+        if data.get("units", "m") != "m":
+            raise RouteFormatError(path, f"route units must be 'm', got {data.get('units')!r}")
+        try:
+            camera = Camera.from_dict(_require(data, "camera", dict, path))
+        except ParameterError as exc:
+            raise RouteFormatError(path, str(exc)) from None
+        params = _require(data, "params", dict, path)
+        for key in ("gsd_m", "security_m"):
+            if not _positive(params.get(key)):
+                raise RouteFormatError(path, f"params.{key} must be a positive number, got {params.get(key)!r}")
+        waypoints = _require(data, "waypoints", list, path)
+        if not waypoints:
+            raise RouteFormatError(path, "has no waypoints")
+        pos, shot, vdir, head, pitch, leg = [], [], [], [], [], []
+        for k, wp in enumerate(waypoints):
+            if not isinstance(wp, dict):
+                raise RouteFormatError(path, f"waypoint {k} is not an object")
+            pos.append(_vector(wp.get("position"), f"waypoint {k} position", path))
+            shot.append(bool(wp.get("shot", False)))
+            h, p = wp.get("heading_deg"), wp.get("gimbal_pitch_deg")
+            vd = wp.get("view_dir")
+            if vd is None and (h is None or p is None):
+                raise RouteFormatError(path, f"waypoint {k} has neither view_dir nor heading_deg/gimbal_pitch_deg")
+            if h is not None and not _finite(h) or p is not None and not _finite(p):
+                raise RouteFormatError(path, f"waypoint {k} heading/pitch must be finite numbers")
+            vd = _vector(vd, f"waypoint {k} view_dir", path) if vd is not None else None
+            if vd is not None and np.linalg.norm(vd) == 0:
+                raise RouteFormatError(path, f"waypoint {k} view_dir is zero")
+            if h is None or p is None:
+                from .orientation import heading_pitch
+                h, p = (float(a) for a in heading_pitch(vd))
+            vdir.append(vd if vd is not None else view_direction(h, p))
+            head.append(float(h))
+            pitch.append(float(p))
+            lg = wp.get("leg", "coverage")
+            if lg not in LEGS:
+                raise RouteFormatError(path, f"waypoint {k} leg {lg!r} is not one of {', '.join(LEGS)}")
+            leg.append(lg)
+        frame = data.get("frame") or {"crs": None, "origin": [0.0, 0.0, 0.0]}
+        if not isinstance(frame, dict):
+            raise RouteFormatError(path, "'frame' must be an object")
+        frame = {"crs": frame.get("crs"),
+                 "origin": list(_vector(frame.get("origin", [0, 0, 0]), "frame.origin", path)),
+                 **{k: v for k, v in frame.items() if k not in ("crs", "origin")}}
+        uncovered = data.get("uncovered", [])
+        if not isinstance(uncovered, list):
+            raise RouteFormatError(path, "'uncovered' must be a list")
+        vdir = np.array(vdir, dtype=float)
+        vdir /= np.linalg.norm(vdir, axis=1, keepdims=True)
+        return cls(np.array(pos), np.array(shot), np.array(head), np.array(pitch), leg, camera, dict(params),
+                   view_dir=vdir, frame=frame, uncovered=uncovered, metrics=data.get("metrics") or {},
+                   extra=data.get("planner") or {})
+
+    def orientation_errors_deg(self) -> np.ndarray:
+        """Angle between each waypoint's view_dir and the one its heading and pitch give."""
+        return angle_between_deg(self.view_dir, view_direction(self.heading_deg, self.pitch_deg))
+
+
+def _require(data, key, kind, path):
+    if key not in data:
+        raise RouteFormatError(path, f"is missing '{key}'")
+    if not isinstance(data[key], kind):
+        raise RouteFormatError(path, f"'{key}' must be a {'list' if kind is list else 'object'}")
+    return data[key]
+
+
+def _finite(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _positive(v) -> bool:
+    return _finite(v) and v > 0
+
+
+def _vector(value, what, path) -> np.ndarray:
+    if not isinstance(value, (list, tuple)) or len(value) != 3 or not all(_finite(v) for v in value):
+        raise RouteFormatError(path, f"{what} must be three finite numbers, got {value!r}")
+    return np.array(value, dtype=float)
+
+
+def _round(v, digits):
+    return [round(float(x), digits) for x in v]
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (np.floating, float)):
+        return float(obj) if math.isfinite(obj) else None
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    return obj
