@@ -27,7 +27,7 @@ def view_limits(route: Route, scene) -> ViewLimits:
     return ViewLimits(security=route.security, d_opt=route.d_opt,
                       max_incidence_deg=float(route.param("max_incidence_deg")),
                       min_z=float(ground) + float(min_alt), pitch_range_deg=(float(lo), float(hi)),
-                      vfov_deg=route.camera.vfov_deg)
+                      vfov_deg=route.camera.vfov_deg, ground_z=float(ground))
 
 
 @dataclass

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 OK, LOW, GIMBAL, OCCLUDED, UNSAFE = 0, 1, 2, 3, 4
+GROUND = -2  # culprit index meaning the ground plane
 
 
 def cone_directions(half_angle_deg: float, count: int) -> np.ndarray:
@@ -46,6 +47,7 @@ class ViewLimits:
     min_z: float
     pitch_range_deg: tuple[float, float]
     vfov_deg: float
+    ground_z: float = -np.inf
 
     def elevation_ok(self, rays) -> np.ndarray:
         """Whether the gimbal can frame a point seen along ``rays`` (point -> camera)."""
@@ -79,13 +81,16 @@ def test_probes(scene, points, normals, owner, positions, rays, limits: ViewLimi
     start = points[owner] + normals[owner] * scene.epsilon * 4
     blocked = scene.rays.segments_blocked(start, positions)
     status[blocked] = OCCLUDED
+    underground = ~blocked & (positions[:, 2] < limits.ground_z)  # the ground is opaque too
+    status[underground] = OCCLUDED
+    culprit[underground] = GROUND
     live = np.flatnonzero(status == OK)
     if len(live):
         clearance = scene.clearance_model(limits.security)
         safe = clearance.points_clear(positions[live], limits.security, check_inside=False)
         status[live[~safe]] = UNSAFE
         culprit[live[~safe]] = clearance.kd_distance(positions[live[~safe]])[1]
-    occ = np.flatnonzero(blocked)
+    occ = np.flatnonzero(blocked)  # which mesh is in the way
     if len(occ):
         length = np.linalg.norm(positions[occ] - start[occ], axis=1)
         _d, mesh, _f = scene.rays.first_hit(start[occ], positions[occ] - start[occ], max_distance=length)
@@ -130,8 +135,12 @@ def reachability(scene, samples, limits: ViewLimits, n_directions: int = 48,
 def explain(scene, status, culprit) -> str:
     """One line saying why none of a sample's probes worked."""
     def most_common(mask):
-        c = culprit[mask & (culprit >= 0)]
-        return scene.describe(int(np.bincount(c).argmax())) if len(c) else "a mesh"
+        c = culprit[mask & (culprit != -1)]
+        if len(c) == 0:
+            return "a mesh"
+        values, counts = np.unique(c, return_counts=True)
+        top = int(values[np.argmax(counts)])
+        return "the ground" if top == GROUND else scene.describe(top)
     if (status == UNSAFE).any():
         return f"no viewpoint within d_opt keeps the security distance from {most_common(status == UNSAFE)}"
     if (status == LOW).any():

@@ -1,0 +1,232 @@
+"""Candidate viewpoints: where a shot could be taken, and which way it would look.
+
+Three generators, all 3D:
+- ``facade_rings``: horizontal sections of the target (trimesh) offset outward by the
+  standoff (shapely) and walked along, cameras facing the wall at a few headings;
+- ``along_normals``: for a thinned set of samples, positions at the standoff along the
+  normal and along directions tilted from it (roofs look down, overhang undersides up);
+- ``from_probes``: for samples the others leave short, the reachability probes that work.
+Every candidate is then checked: above the minimum altitude, clear of every mesh by the
+security distance plus a margin, aimable by the gimbal.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+from shapely.geometry import MultiPolygon, Polygon
+from shapely.ops import unary_union
+
+from .orientation import heading_pitch, view_direction
+from .reachability import (OK, ViewLimits, cone_directions, probe_positions, tangent_frames,
+                           test_probes)
+
+
+@dataclass
+class Candidates:
+    """Camera poses: positions (n, 3), headings and pitches (deg), and how each was made."""
+
+    positions: np.ndarray
+    heading_deg: np.ndarray
+    pitch_deg: np.ndarray
+    source: np.ndarray  # 0 facade ring, 1 along normal, 2 probe
+
+    def __len__(self) -> int:
+        return len(self.positions)
+
+    @classmethod
+    def empty(cls) -> "Candidates":
+        return cls(np.zeros((0, 3)), np.zeros(0), np.zeros(0), np.zeros(0, np.int8))
+
+    @classmethod
+    def looking(cls, positions, view_dirs, limits: ViewLimits, source: int) -> "Candidates":
+        """Cameras at ``positions`` looking along ``view_dirs``, pitch clipped to the gimbal."""
+        heading, pitch = heading_pitch(view_dirs)
+        pitch = np.clip(pitch, *limits.pitch_range_deg)
+        return cls(np.asarray(positions, float).reshape(-1, 3), heading, pitch,
+                   np.full(len(heading), source, dtype=np.int8))
+
+    def concat(self, other: "Candidates") -> "Candidates":
+        return Candidates(np.vstack([self.positions, other.positions]),
+                          np.concatenate([self.heading_deg, other.heading_deg]),
+                          np.concatenate([self.pitch_deg, other.pitch_deg]),
+                          np.concatenate([self.source, other.source]))
+
+    def subset(self, mask) -> "Candidates":
+        return Candidates(self.positions[mask], self.heading_deg[mask], self.pitch_deg[mask], self.source[mask])
+
+    @property
+    def view_dirs(self) -> np.ndarray:
+        return view_direction(self.heading_deg, self.pitch_deg)
+
+
+def standoff(camera, limits: ViewLimits, margin: float) -> float:
+    """Distance from the wall for candidates: the whole frame within d_opt on a facing wall,
+    but never closer than the security distance plus margin."""
+    nearest = limits.security + margin
+    ideal = limits.d_opt / camera.corner_factor * 0.97
+    return float(min(max(ideal, nearest * 1.05), limits.d_opt * 0.95))
+
+
+def slice_heights(scene, limits: ViewLimits, camera, distance: float) -> np.ndarray:
+    """Heights of the façade slices: spaced by half the vertical footprint at ``distance``."""
+    top = scene.bounds("target")[1, 2]
+    step = camera.footprint(distance)[1] * 0.5
+    start = max(limits.min_z, scene.ground_z + step * 0.5)
+    if start > top:
+        return np.array([start])
+    return np.arange(start, top + step * 0.5, step)
+
+
+def facade_rings(scene, camera, limits: ViewLimits, distance: float) -> Candidates:
+    """Cameras on the target's horizontal sections offset by ``distance``, facing the walls."""
+    width = camera.footprint(distance)[0]
+    step = width / 4.0
+    tilt = min(camera.hfov_deg / 3.0, 30.0)
+    positions, dirs = [], []
+    heights = slice_heights(scene, limits, camera, distance)
+    # A slice above the roof walks the section just under the roof.
+    for z in heights:
+        section = _section_union(scene, min(z, scene.bounds("target")[1, 2] - 1e-3))
+        if section is None or section.is_empty:
+            continue
+        offset = section.buffer(distance, quad_segs=8)
+        for ring in _rings(offset):
+            pts, outward = _walk(ring, step)
+            if len(pts) == 0:
+                continue
+            pos3 = np.column_stack([pts, np.full(len(pts), z)])
+            for t in (-tilt, 0.0, tilt):
+                a = np.radians(t)
+                inward = -outward
+                rot = np.column_stack([inward[:, 0] * np.cos(a) - inward[:, 1] * np.sin(a),
+                                       inward[:, 0] * np.sin(a) + inward[:, 1] * np.cos(a)])
+                positions.append(pos3)
+                dirs.append(np.column_stack([rot, np.zeros(len(rot))]))
+    if not positions:
+        return Candidates.empty()
+    return Candidates.looking(np.vstack(positions), np.vstack(dirs), limits, source=0)
+
+
+def along_normals(samples, limits: ViewLimits, camera, distance: float, tilt_deg: float = 30.0,
+                  n_tilts: int = 4) -> Candidates:
+    """Cameras at ``distance`` along each thinned sample's normal and tilted about it."""
+    cell = camera.footprint(distance)[1] * 0.35
+    picked = _thin(samples.points, samples.normals, cell)
+    pts, nrm = samples.points[picked], samples.normals[picked]
+    t1, t2 = tangent_frames(nrm)
+    dirs = [nrm]
+    a = np.radians(tilt_deg)
+    for k in range(n_tilts):
+        phi = 2 * np.pi * k / n_tilts
+        dirs.append(np.cos(a) * nrm + np.sin(a) * (np.cos(phi) * t1 + np.sin(phi) * t2))
+    out = np.stack(dirs, axis=1)  # (n, 1 + n_tilts, 3): sample -> camera
+    positions = (pts[:, None, :] + out * distance).reshape(-1, 3)
+    rays = out.reshape(-1, 3)
+    ok = limits.elevation_ok(rays)
+    return Candidates.looking(positions[ok], -rays[ok], limits, source=1)
+
+
+def from_probes(scene, samples, needy, limits: ViewLimits, per_sample: int = 8,
+                n_directions: int = 96, range_fractions=(0.1, 0.35, 0.6, 0.85, 0.97)) -> Candidates:
+    """Working reachability probes of the ``needy`` samples, aimed at their sample.
+
+    The cone reaches out to the incidence limit, as the evaluator's reachability does: these
+    are the samples only grazing views can reach.
+    """
+    needy = np.asarray(needy, dtype=np.int64)
+    if len(needy) == 0:
+        return Candidates.empty()
+    directions = cone_directions(limits.max_incidence_deg * 0.995, n_directions)
+    owner, pos, rays = probe_positions(samples.points, samples.normals, needy, limits, directions,
+                                       range_fractions)
+    status, _ = test_probes(scene, samples.points, samples.normals, owner, pos, rays, limits)
+    good = np.flatnonzero(status == OK)
+    # Keep a spread of directions per sample: every k-th working probe.
+    keep = []
+    for s in np.unique(owner[good]):
+        mine = good[owner[good] == s]
+        keep.append(mine[np.linspace(0, len(mine) - 1, min(per_sample, len(mine))).astype(int)])
+    if not keep:
+        return Candidates.empty()
+    keep = np.concatenate(keep)
+    return Candidates.looking(pos[keep], -rays[keep], limits, source=2)
+
+
+def keep_safe(scene, candidates: Candidates, limits: ViewLimits, margin: float) -> Candidates:
+    """Drop candidates below the minimum altitude or closer than security + margin to a mesh."""
+    if len(candidates) == 0:
+        return candidates
+    ok = candidates.positions[:, 2] >= limits.min_z
+    idx = np.flatnonzero(ok)
+    clearance = scene.clearance_model(limits.security)
+    ok[idx] = clearance.points_clear(candidates.positions[idx], limits.security + margin)
+    return candidates.subset(ok)
+
+
+# -- helpers --------------------------------------------------------------------------------
+
+def _section_union(scene, z: float):
+    polys = []
+    for part in scene.targets:
+        lo, hi = part.mesh.bounds[:, 2]
+        if not (lo < z < hi):
+            continue
+        section = part.mesh.section(plane_origin=[0, 0, z], plane_normal=[0, 0, 1])
+        if section is None:
+            continue
+        try:
+            planar, to_3d = section.to_2D(to_2D=np.eye(4))
+            polys.extend(planar.polygons_full)
+        except Exception:  # open or self-touching sections: fall back to hulls of the paths
+            for path in section.discrete:
+                if len(path) >= 3:
+                    polys.append(Polygon(path[:, :2]).convex_hull)
+    if not polys:
+        return None
+    return unary_union([shapely.make_valid(p) for p in polys])
+
+
+def _rings(geometry):
+    geoms = geometry.geoms if isinstance(geometry, MultiPolygon) else [geometry]
+    for poly in geoms:
+        if isinstance(poly, Polygon) and not poly.is_empty:
+            yield np.asarray(poly.exterior.coords), True
+            for hole in poly.interiors:
+                yield np.asarray(hole.coords), False
+
+
+def _walk(ring_and_kind, step: float):
+    """Points every ``step`` along a closed ring and the outward (away from the target) normals."""
+    coords, exterior = ring_and_kind
+    ring = shapely.LinearRing(coords)
+    length = ring.length
+    if length < 1e-9:
+        return np.zeros((0, 2)), np.zeros((0, 2))
+    n = max(int(np.ceil(length / step)), 3)
+    s = np.arange(n) * length / n
+    pts = shapely.get_coordinates(shapely.line_interpolate_point(ring, s))
+    ahead = shapely.get_coordinates(shapely.line_interpolate_point(ring, (s + 1e-3 * step) % length))
+    behind = shapely.get_coordinates(shapely.line_interpolate_point(ring, (s - 1e-3 * step) % length))
+    tangent = ahead - behind
+    tangent /= np.maximum(np.linalg.norm(tangent, axis=1, keepdims=True), 1e-12)
+    normal = np.column_stack([tangent[:, 1], -tangent[:, 0]])  # right of the direction of travel
+    # Exteriors should be counter-clockwise and holes clockwise, so "right" points away from the
+    # polygon in both; shapely does not promise the orientation, so check it.
+    if ring.is_ccw != exterior:
+        normal = -normal
+    return pts, normal
+
+
+def _thin(points, normals, cell: float) -> np.ndarray:
+    """Indices of one sample per (cell, normal octant): the one nearest the cell's centre."""
+    key = np.column_stack([np.floor(points / cell).astype(np.int64), (normals > 0.3).astype(np.int64),
+                           (normals < -0.3).astype(np.int64)])
+    _, group = np.unique(key, axis=0, return_inverse=True)
+    group = group.ravel()
+    centre = (np.floor(points / cell) + 0.5) * cell
+    off = np.linalg.norm(points - centre, axis=1)
+    order = np.lexsort((off, group))
+    return order[np.r_[True, group[order][1:] != group[order][:-1]]]

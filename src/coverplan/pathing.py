@@ -1,0 +1,197 @@
+"""Collision-free legs between shots: a lattice in free space, the thesis's cost, Dijkstra.
+
+The lattice is a regular grid of spacing ``h`` over the shot region and its surroundings.
+Nodes keep the security distance (KD-tree bound, FCL where it cannot tell); an edge joins
+26-neighbours when its straight segment keeps it too (Lipschitz bound from the nodes'
+clearances, FCL capsules for the rest). Shots and the start join the lattice and each other
+by FCL-checked segments. Edge weight = length x (1 + w x cost / K), with the cost of thesis
+Eq. 3.2-3.3: security term K - d(scene) plus optimal-placement term |d(target) - d_opt|.
+Legs are shortened afterwards by replacing runs of nodes with straight safe segments.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import dijkstra
+from scipy.spatial import cKDTree
+
+from .safety import surface_lattice
+
+_NEIGHBOURS = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)
+                        if (i, j, k) > (0, 0, 0)])  # 13 of the 26: each edge once
+
+
+@dataclass
+class FlightGraph:
+    """Lattice nodes followed by the special points (start first, then shots)."""
+
+    points: np.ndarray  # (n, 3)
+    graph: sp.csr_matrix  # symmetric weights
+    n_lattice: int
+    spacing: float
+
+    def special(self, k: int) -> int:
+        """Graph index of special point k (0 = start, 1.. = shots)."""
+        return self.n_lattice + k
+
+
+def lattice_spacing(d_opt: float, security: float, volume: float, max_nodes: int) -> float:
+    h = min(d_opt / 3.0, max(security, d_opt / 6.0))
+    return float(max(h, (volume / max_nodes) ** (1.0 / 3.0)))
+
+
+def node_costs(points, scene_distance, target_distance, d_opt: float) -> tuple[np.ndarray, float]:
+    """Thesis cost per point: (K - d(scene)) + |d(target) - d_opt|, with K the largest d(scene)."""
+    k = float(scene_distance.max()) if len(scene_distance) else 1.0
+    return (k - scene_distance) + np.abs(target_distance - d_opt), max(k, 1e-9)
+
+
+def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float,
+                       cost_weight: float = 1.0, progress=None) -> FlightGraph:
+    """Lattice + special points (start, shots) with safe, cost-weighted edges."""
+    clearance = scene.clearance_model(limits.security)
+    radius = limits.security + margin
+    specials = np.asarray(specials, dtype=float).reshape(-1, 3)
+    lo, hi = scene.bounds("target")
+    pad = limits.d_opt + 2 * spacing
+    lo = np.minimum(lo - pad, specials.min(axis=0) - spacing)
+    hi = np.maximum(hi + pad, specials.max(axis=0) + spacing)
+    lo[2] = limits.min_z
+    hi[2] = max(hi[2], limits.min_z + spacing)
+    shape = np.floor((hi - lo) / spacing).astype(int) + 1
+    grid = np.stack(np.meshgrid(*[np.arange(s) for s in shape], indexing="ij"), axis=-1).reshape(-1, 3)
+    nodes = lo + grid * spacing
+    upper, _owner = clearance.kd_distance(nodes)
+    lower = np.maximum(upper - clearance.cover_radius, 0.0)
+    ok = lower >= radius
+    unsure = np.flatnonzero(~ok & (upper >= radius))
+    if len(unsure):
+        ok[unsure] = clearance.points_clear(nodes[unsure], radius, check_inside=False)
+    # Nodes inside buildings stay in components the start cannot reach; no inside test needed.
+    index = np.full(len(nodes), -1, dtype=np.int64)
+    index[ok] = np.arange(int(ok.sum()))
+    keep_grid = grid[ok]
+    nodes, lower, upper = nodes[ok], lower[ok], upper[ok]
+    flat = np.full(tuple(shape), -1, dtype=np.int64)
+    flat[tuple(keep_grid.T)] = np.arange(len(nodes))
+    rows, cols = [], []
+    for step in _NEIGHBOURS:
+        other = keep_grid + step
+        inside = ((other >= 0) & (other < shape)).all(axis=1)
+        a = np.flatnonzero(inside)
+        b = flat[tuple(other[inside].T)]
+        live = b >= 0
+        rows.append(a[live])
+        cols.append(b[live])
+    rows, cols = np.concatenate(rows), np.concatenate(cols)
+    if len(rows):
+        safe = clearance.segments_clear(nodes[rows], nodes[cols], radius, lower[rows], lower[cols])
+        rows, cols = rows[safe], cols[safe]
+    if progress is not None:
+        progress(1)
+
+    # Special points join lattice nodes and each other where the straight segment is safe.
+    points = np.vstack([nodes, specials])
+    n_lat = len(nodes)
+    tree = cKDTree(nodes) if n_lat else None
+    reach = spacing * 2.0
+    extra_r, extra_c = [], []
+    if tree is not None:
+        near = tree.query_ball_point(specials, reach)
+        a = np.repeat(np.arange(len(specials)), [len(x) for x in near]) + n_lat
+        b = np.concatenate([np.asarray(x, dtype=np.int64) for x in near]) if len(a) else np.zeros(0, np.int64)
+        extra_r.append(a)
+        extra_c.append(b)
+    pairs = cKDTree(specials).query_pairs(max(reach, limits.d_opt), output_type="ndarray")
+    if len(pairs):
+        extra_r.append(pairs[:, 0] + n_lat)
+        extra_c.append(pairs[:, 1] + n_lat)
+    if extra_r:
+        er, ec = np.concatenate(extra_r), np.concatenate(extra_c)
+        safe = clearance.segments_clear(points[er], points[ec], radius)
+        rows = np.concatenate([rows, er[safe]])
+        cols = np.concatenate([cols, ec[safe]])
+
+    scene_d = np.concatenate([upper, clearance.kd_distance(specials)[0]])
+    target_tree = cKDTree(np.vstack([surface_lattice(p.mesh.triangles, clearance.cover_edge)
+                                     for p in scene.targets]))
+    target_d = target_tree.query(points, workers=-1)[0]
+    cost, k = node_costs(points, scene_d, target_d, limits.d_opt)
+    length = np.linalg.norm(points[rows] - points[cols], axis=1)
+    weight = length * (1.0 + cost_weight * (cost[rows] + cost[cols]) / (2.0 * k))
+    weight = np.maximum(weight, 1e-9)  # explicit zeros would vanish from the sparse graph
+    n = len(points)
+    graph = sp.coo_matrix((weight, (rows, cols)), shape=(n, n)).tocsr()
+    graph = graph.maximum(graph.T).tocsr()
+    return FlightGraph(points, graph, n_lat, spacing)
+
+
+def shot_distances(fg: FlightGraph, n_special: int, limit: float):
+    """Shortest-path costs between all special points (start + shots).
+
+    Dijkstra from each shot is cut at ``limit``; farther pairs get their cost through chains of
+    nearer shots (a shortest-path closure over the special points), and the start is searched
+    without limit so every reachable shot connects. Returns (closure, its predecessors, the
+    direct costs).
+    """
+    idx = fg.n_lattice + np.arange(n_special)
+    from_start = dijkstra(fg.graph, directed=False, indices=idx[:1])[:, idx]
+    if n_special > 1:
+        near = dijkstra(fg.graph, directed=False, indices=idx[1:], limit=limit)[:, idx]
+        direct = np.vstack([from_start, near])
+    else:
+        direct = from_start
+    direct = np.minimum(direct, direct.T)
+    np.fill_diagonal(direct, 0.0)
+    finite = np.isfinite(direct)
+    closure, pred = dijkstra(sp.csr_matrix(np.where(finite, np.maximum(direct, 1e-9), 0.0)),
+                             directed=False, return_predecessors=True)
+    return closure, pred, direct
+
+
+def closure_hops(pred, u: int, v: int) -> list[int]:
+    """Special points from u to v along the closure's shortest path (u and v included)."""
+    hops = [v]
+    while hops[-1] != u:
+        hops.append(int(pred[u, hops[-1]]))
+    return hops[::-1]
+
+
+def leg(fg: FlightGraph, a: int, b: int, cost: float) -> np.ndarray:
+    """Graph nodes of the cheapest path from node a to node b (both included), whose cost is
+    known to be ``cost`` (the search stops there)."""
+    if a == b:
+        return np.array([a])
+    dist, pred = dijkstra(fg.graph, directed=False, indices=a, return_predecessors=True,
+                          limit=cost * (1 + 1e-9) + 1e-9)
+    if not np.isfinite(dist[b]):
+        raise RuntimeError(f"no path between graph nodes {a} and {b}")
+    path = [b]
+    while path[-1] != a:
+        path.append(pred[path[-1]])
+    return np.array(path[::-1])
+
+
+def shortcut(points, clearance, radius: float, batch: int = 8) -> np.ndarray:
+    """Indices of a subsequence of ``points`` whose straight segments all stay safe.
+
+    From each kept point, jump to the farthest later point in view: the farthest is tried
+    first (most legs are then one segment), then the next ``batch`` farthest, and so on.
+    """
+    keep = [0]
+    i = 0
+    n = len(points)
+    while i < n - 1:
+        nxt = i + 1  # consecutive path points are joined by a checked edge already
+        for hi in range(n - 1, i + 1, -batch):
+            j = np.arange(hi, max(hi - batch, i + 1), -1)
+            ok = clearance.segments_clear(np.repeat(points[i:i + 1], len(j), axis=0), points[j], radius)
+            if ok.any():
+                nxt = int(j[np.argmax(ok)])
+                break
+        keep.append(nxt)
+        i = nxt
+    return np.array(keep)

@@ -1,0 +1,325 @@
+"""plan(): scene + camera + detail + security distance -> one safe flight covering the target.
+
+Stages (DESIGN.md's pipeline): surface samples -> reachability -> candidate viewpoints ->
+visibility matrix -> view selection -> flight graph -> tour -> legs -> Route.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .camera import Camera, check_positive
+from .candidates import Candidates, along_normals, facade_rings, from_probes, keep_safe, standoff
+from .errors import ParameterError, PlanningError
+from .orientation import heading_pitch
+from .pathing import (build_flight_graph, closure_hops, lattice_spacing, leg, shortcut,
+                      shot_distances)
+from .progress import Progress
+from .reachability import ViewLimits, reachability
+from .route import Route
+from .selection import coverage_state, select_views
+from .surface import default_spacing, sample_surface
+from .tour import solve_tour
+from .visibility import imaging_pairs, view_rays, visibility_matrix, widest_pair_angle
+
+# The planner holds itself to a slightly stricter rule than the evaluator, so coverage
+# still holds between its samples: 2 % off the frustum, range and incidence.
+SHRINK = 0.02
+MAX_LATTICE_NODES = 150_000
+
+
+def safety_margin(security: float) -> float:
+    """Extra clearance the planner keeps beyond the security distance."""
+    return max(0.05, 0.02 * security)
+
+
+def check_settings(camera: Camera, gsd, security, min_views, min_triangulation_deg,
+                   max_incidence_deg, min_altitude) -> tuple[float, float, float]:
+    """Validate the plan settings; returns (gsd, security, d_opt)."""
+    gsd = check_positive("gsd", gsd)
+    security = check_positive("security distance", security)
+    if int(min_views) != min_views or min_views < 1:
+        raise ParameterError(f"min views must be a whole number >= 1, got {min_views!r}")
+    if not 0 <= float(min_triangulation_deg) < 90:
+        raise ParameterError(f"min triangulation angle must be in [0, 90) degrees, got {min_triangulation_deg!r}")
+    if not 0 < float(max_incidence_deg) < 90:
+        raise ParameterError(f"max incidence must be in (0, 90) degrees, got {max_incidence_deg!r}")
+    if min_altitude is not None and not np.isfinite(min_altitude):
+        raise ParameterError(f"min altitude must be a finite number, got {min_altitude!r}")
+    d_opt = camera.optimal_distance(gsd)
+    need = security + safety_margin(security)
+    if d_opt <= need * 1.05:
+        finest = need * 1.05 * camera.pixel_pitch_mm / camera.focal_length_mm
+        raise PlanningError(
+            f"GSD {gsd:g} m/px needs shots within {d_opt:.2f} m of the surface, but the security "
+            f"distance is {security:g} m; the finest GSD possible with this camera and security "
+            f"distance is about {finest:.4g} m/px")
+    return gsd, security, d_opt
+
+
+def default_start(scene, limits: ViewLimits, margin: float) -> np.ndarray:
+    """A point just outside the shot region, north-west of the target, at the minimum altitude."""
+    lo, hi = scene.bounds("target")
+    clearance = scene.clearance_model(limits.security)
+    centre = (lo + hi) / 2.0
+    for extra in np.arange(1.0, 20.0, 1.0) * max(limits.d_opt, 1.0):
+        angles = np.radians(np.arange(135.0, 135.0 + 360.0, 15.0))
+        r = np.linalg.norm(hi[:2] - lo[:2]) / 2.0 + extra
+        pts = np.column_stack([centre[0] + r * np.cos(angles), centre[1] + r * np.sin(angles),
+                               np.full(len(angles), limits.min_z)])
+        ok = clearance.points_clear(pts, limits.security + margin)
+        if ok.any():
+            return pts[np.argmax(ok)]
+    raise PlanningError("found no safe start point near the target; give one with --start X Y Z")
+
+
+def check_start(scene, start, limits: ViewLimits, notes: list) -> np.ndarray:
+    start = np.asarray(start, dtype=float).reshape(3)
+    if not np.isfinite(start).all():
+        raise ParameterError(f"start point must be three finite numbers, got {start.tolist()}")
+    if start[2] < limits.min_z:
+        notes.append(f"start raised from z={start[2]:.2f} to the minimum altitude z={limits.min_z:.2f}")
+        start = start.copy()
+        start[2] = limits.min_z
+    inside = scene.rays.inside(start[None])[0]
+    if inside >= 0:
+        raise PlanningError(f"start point {start.round(2).tolist()} is inside {scene.describe(int(inside))}")
+    clearance = scene.clearance_model(limits.security)
+    d, which = clearance.point_distance(start[None])
+    if d[0] < limits.security:
+        raise PlanningError(f"start point {start.round(2).tolist()} is {d[0]:.2f} m from "
+                            f"{scene.describe(int(which[0]))}, closer than the security distance "
+                            f"{limits.security:g} m")
+    return start
+
+
+def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_views: int = 2,
+         min_triangulation_deg: float = 5.0, max_incidence_deg: float = 70.0,
+         min_altitude: float | None = None, spacing: float | None = None,
+         gimbal_pitch_range_deg=(-90.0, 30.0), cost_weight: float = 1.0,
+         lattice_spacing_m: float | None = None, lp_time_limit: float = 20.0,
+         progress: Progress | None = None) -> Route:
+    """Plan one flight from ``start`` over shots covering the target and back.
+
+    Raises ParameterError / PlanningError (with a one-line message) on impossible settings;
+    surface no safe position can image is planned around and listed in ``route.uncovered``.
+    """
+    t0 = time.perf_counter()
+    progress = progress or Progress()
+    gsd, security, d_opt = check_settings(camera, gsd, security, min_views, min_triangulation_deg,
+                                          max_incidence_deg, min_altitude)
+    min_views = int(min_views)
+    min_alt = security if min_altitude is None else float(min_altitude)
+    lo_p, hi_p = (float(v) for v in gimbal_pitch_range_deg)
+    if not -90.0 <= lo_p <= hi_p <= 90.0:
+        raise ParameterError(f"gimbal pitch range must lie in [-90, 90] with min <= max, got {gimbal_pitch_range_deg}")
+    limits = ViewLimits(security, d_opt, float(max_incidence_deg), scene.ground_z + min_alt, (lo_p, hi_p),
+                        camera.vfov_deg, scene.ground_z)
+    margin = safety_margin(security)
+    notes: list[str] = []
+    spacing = default_spacing(scene, d_opt) if spacing is None else check_positive("spacing", spacing)
+    start = default_start(scene, limits, margin) if start is None else check_start(scene, start, limits, notes)
+
+    with progress.stage("surface samples"):
+        samples = sample_surface(scene, spacing)
+    with progress.stage("reachability"):
+        reach = reachability(scene, samples, limits)
+    distance = standoff(camera, limits, margin)
+    with progress.stage("candidate viewpoints"):
+        cands = facade_rings(scene, camera, limits, distance).concat(
+            along_normals(samples, limits, camera, distance))
+        cands = keep_safe(scene, cands, limits, margin)
+
+    def pairs_for(c: Candidates, update, shrink=SHRINK):
+        return imaging_pairs(c.positions, c.heading_deg, c.pitch_deg, camera, samples.points,
+                             samples.normals, scene.rays, max_range=d_opt,
+                             max_incidence_deg=max_incidence_deg, shrink=shrink,
+                             offset=scene.epsilon * 4, progress=update)
+
+    with progress.stage("visibility matrix", total=len(cands), unit="cam") as update:
+        pairs = pairs_for(cands, update)
+        # Samples the structured candidates leave short get candidates from their own probes.
+        needy = _short_samples(pairs, cands.positions, samples, min_views, min_triangulation_deg) & reach.reachable
+        extra = keep_safe(scene, from_probes(scene, samples, np.flatnonzero(needy), limits), limits, margin)
+        if len(extra):
+            # Probe shots serve samples only grazing views reach: judge them without the margin.
+            more = pairs_for(extra, None, shrink=0.0)
+            pairs = (np.concatenate([pairs[0], more[0] + len(cands)]), np.concatenate([pairs[1], more[1]]),
+                     np.concatenate([pairs[2], more[2]]))
+            cands = cands.concat(extra)
+    vis = visibility_matrix(len(cands), len(samples), pairs)
+    rays = _rays_in_csr_order(vis, pairs, cands.positions, samples.points)
+
+    with progress.stage("view selection", unit="shot") as update:
+        selection = select_views(vis, rays, min_views, min_triangulation_deg, lp_time_limit=lp_time_limit,
+                                 progress=update)
+    chosen = selection.chosen
+    if len(chosen) == 0:
+        raise PlanningError("no safe viewpoint can image any part of the target: "
+                            + (reach.reason[0] if len(reach.reason) and reach.reason[0] else
+                               "check the security distance and GSD"))
+    uncovered = _uncovered(samples, selection, reach, pairs, cands.positions, min_views, min_triangulation_deg)
+
+    shots = cands.subset(chosen)
+    with progress.stage("lattice and Dijkstra"):
+        specials = np.vstack([start, shots.positions])
+        region = np.ptp(np.vstack([scene.bounds("target"), specials]), axis=0) + 2 * (d_opt + security)
+        h = lattice_spacing_m or lattice_spacing(d_opt, security, float(np.prod(region)), MAX_LATTICE_NODES)
+        fg = build_flight_graph(scene, limits, specials, margin=margin, spacing=h, cost_weight=cost_weight)
+        limit = 4.0 * max(d_opt, 3 * h) * (1.0 + 2.0 * cost_weight)
+        closure, pred, direct = shot_distances(fg, len(specials), limit)
+    flyable = np.isfinite(closure[0])
+    if not flyable[1:].any():
+        raise PlanningError("no safe path from the start point to any shot; move the start point")
+    if not flyable.all():
+        # Shots the start cannot reach (a pocket no safe path enters): drop them, and say what
+        # their samples lose.
+        lost = int((~flyable[1:]).sum())
+        notes.append(f"{lost} shots have no safe path from the start and were dropped")
+        chosen = chosen[flyable[1:]]
+        selection.views, selection.satisfied = coverage_state(vis, rays, chosen, min_views,
+                                                              min_triangulation_deg)
+        selection.chosen = chosen
+        uncovered = _uncovered(samples, selection, reach, pairs, cands.positions, min_views,
+                               min_triangulation_deg, lost_path=True)
+        shots = cands.subset(chosen)
+        specials = np.vstack([start, shots.positions])
+        fg = build_flight_graph(scene, limits, specials, margin=margin, spacing=h, cost_weight=cost_weight)
+        closure, pred, direct = shot_distances(fg, len(specials), limit)
+    with progress.stage("tour"):
+        order = solve_tour(closure)
+    with progress.stage("legs"):
+        waypoints = _fly(fg, order, pred, direct, scene, limits, margin)
+    route = _route(waypoints, order, shots, specials, camera, scene, limits, gsd, security, min_views,
+                   min_triangulation_deg, max_incidence_deg, min_alt, spacing, uncovered)
+    _final_check(route, scene, limits)
+
+    covered_area = float(samples.area[selection.satisfied & reach.reachable].sum())
+    reachable_area = float(samples.area[reach.reachable].sum())
+    route.metrics = {
+        "shots": int(route.shot.sum()),
+        "path_length_m": route.path_length,
+        "planned_coverage_pct": 100.0 * covered_area / reachable_area if reachable_area else 0.0,
+        "reachable_area_m2": reachable_area,
+        "surface_area_m2": samples.total_area,
+        "planning_time_s": time.perf_counter() - t0,
+        "stage_seconds": dict(progress.timings),
+        "candidates": int(len(cands)),
+        "samples": int(len(samples)),
+        "standoff_m": distance,
+        "d_opt_m": d_opt,
+        "lattice_spacing_m": h,
+        "orbit_length_m": _orbit_length(scene, distance),
+    }
+    if selection.lp_bound is not None:
+        route.metrics["lp_lower_bound_shots"] = selection.lp_bound
+    route.extra = {"notes": notes + list(scene.notes)}
+    return route
+
+
+def _short_samples(pairs, positions, samples, min_views, min_tri) -> np.ndarray:
+    cam, pt, _ = pairs
+    views = np.bincount(pt, minlength=len(samples))
+    widest = widest_pair_angle(pt, view_rays(cam, pt, positions, samples.points), len(samples))
+    return (views < min_views + 1) | (widest < min_tri * 2)
+
+
+def _rays_in_csr_order(vis, pairs, positions, points) -> np.ndarray:
+    """Unit rays sample -> camera aligned with ``vis.data`` (row-major, sorted columns)."""
+    cam, pt, _ = pairs
+    order = np.lexsort((pt, cam))
+    vis.sort_indices()
+    return view_rays(cam[order], pt[order], positions, points)
+
+
+def _uncovered(samples, selection, reach, pairs, positions, min_views, min_tri,
+               lost_path: bool = False) -> list[dict]:
+    cam, pt, _ = pairs
+    possible = np.bincount(pt, minlength=len(samples))
+    widest = widest_pair_angle(pt, view_rays(cam, pt, positions, samples.points), len(samples))
+    out = []
+    for k in np.flatnonzero(~selection.satisfied):
+        if not reach.reachable[k]:
+            reason = reach.reason[k]
+        elif possible[k] < min_views:
+            reason = f"only {possible[k]} safe viewpoint(s) found that image it (needs {min_views})"
+        elif widest[k] < min_tri:
+            reason = f"its safe views are all within {widest[k]:.1f} deg of each other (needs {min_tri:g})"
+        elif lost_path:
+            reason = "its viewpoints have no safe path from the start point"
+        else:
+            reason = "not covered by the selected shots"
+        out.append({"position": samples.points[k].tolist(), "normal": samples.normals[k].tolist(),
+                     "area_m2": float(samples.area[k]), "reason": reason})
+    return out
+
+
+def _fly(fg, order, pred, direct, scene, limits, margin) -> list[tuple[np.ndarray, int]]:
+    """Waypoints along the tour: (position, special index or -1 for transit points)."""
+    clearance = scene.clearance_model(limits.security)
+    radius = limits.security + margin
+    stops = list(order) + [0]
+    out: list[tuple[np.ndarray, int]] = [(fg.points[fg.special(0)], 0)]
+    for u, v in zip(stops[:-1], stops[1:]):
+        hops = closure_hops(pred, u, v)
+        nodes = [fg.special(hops[0])]
+        for x, y in zip(hops[:-1], hops[1:]):
+            nodes.extend(leg(fg, fg.special(x), fg.special(y), direct[x, y])[1:])
+        pts = fg.points[np.array(nodes)]
+        keep = shortcut(pts, clearance, radius)
+        for k in keep[1:-1]:
+            out.append((pts[k], -1))
+        out.append((pts[-1], v))
+    return out
+
+
+def _route(waypoints, order, shots, specials, camera, scene, limits, gsd, security, min_views,
+           min_tri, max_inc, min_alt, spacing, uncovered) -> Route:
+    pos = np.array([p for p, _ in waypoints])
+    special = np.array([s for _, s in waypoints])
+    n = len(pos)
+    is_shot = (special > 0) & (np.arange(n) < n - 1)
+    heading = np.zeros(n)
+    pitch = np.zeros(n)
+    shot_idx = special[is_shot] - 1
+    heading[is_shot] = shots.heading_deg[shot_idx]
+    pitch[is_shot] = shots.pitch_deg[shot_idx]
+    # Transit points face the way they fly; where they go straight up/down keep the last heading.
+    last = 0.0
+    for k in range(n):
+        if is_shot[k]:
+            last = heading[k]
+            continue
+        step = pos[min(k + 1, n - 1)] - pos[k]
+        if np.hypot(step[0], step[1]) > 1e-6:
+            last = float(heading_pitch(np.array([step[0], step[1], 0.0]))[0])
+        heading[k] = last
+    shot_rows = np.flatnonzero(is_shot)
+    first, final = shot_rows[0], shot_rows[-1]
+    legs = ["initial" if k < first else "final" if k > final else "coverage" for k in range(n)]
+    params = {"gsd_m": gsd, "security_m": security, "min_views": min_views,
+              "min_triangulation_deg": min_tri, "max_incidence_deg": max_inc,
+              "min_altitude_m": min_alt, "ground_z_m": scene.ground_z,
+              "gimbal_pitch_range_deg": list(limits.pitch_range_deg), "sample_spacing_m": spacing}
+    frame = {"crs": scene.crs, "origin": scene.origin.tolist()}
+    return Route(pos, is_shot, heading, pitch, legs, camera, params, frame=frame, uncovered=uncovered)
+
+
+def _final_check(route: Route, scene, limits: ViewLimits) -> None:
+    """Never hand out an unsafe route: every segment and waypoint checked once more."""
+    clearance = scene.clearance_model(limits.security)
+    p = route.positions
+    ok = clearance.segments_clear(p[:-1], p[1:], limits.security) if len(p) > 1 else np.array([True])
+    low = p[:, 2] < limits.min_z - 1e-9
+    if not ok.all() or low.any():
+        raise RuntimeError(f"internal error: planned route breaks the security distance on "
+                           f"{int((~ok).sum())} segments / altitude at {int(low.sum())} waypoints")
+
+
+def _orbit_length(scene, distance: float) -> float:
+    """Length of one horizontal orbit at the standoff around the target's footprint."""
+    from shapely.geometry import MultiPoint
+    pts = np.vstack([p.mesh.vertices[:, :2] for p in scene.targets])
+    return float(MultiPoint(pts).convex_hull.buffer(distance).exterior.length)
