@@ -85,6 +85,76 @@ def cmd_evaluate(args) -> int:
     return 0
 
 
+def _add_camera_args(p):
+    p.add_argument("--camera", default=None, metavar="PRESET",
+                   help=f"camera preset: {', '.join(sorted(PRESETS))} (see 'coverplan cameras')")
+    p.add_argument("--sensor-mm", nargs=2, type=float, default=None, metavar=("W", "H"))
+    p.add_argument("--focal-mm", type=float, default=None, metavar="F")
+    p.add_argument("--image-px", nargs=2, type=float, default=None, metavar=("W", "H"))
+
+
+def cmd_plan(args) -> int:
+    from pathlib import Path
+
+    from .planner import plan
+    from .progress import Progress
+
+    out = Path(args.output)
+    if out.exists() and not args.force:
+        raise ParameterError(f"{out} exists; pass --force to overwrite it")
+    if not out.parent.exists():
+        raise ParameterError(f"{out.parent} does not exist (output folder for {out.name})")
+    camera = _camera(args)
+    check_positive("--speed", args.speed)
+    progress = Progress(bars=not args.quiet, verbose=args.verbose)
+    with progress.stage("load scene"):
+        scene = _scene(args)
+    route = plan(scene, camera, gsd=args.gsd, security=args.security, start=args.start,
+                 min_views=args.min_views, min_triangulation_deg=args.min_triangulation_deg,
+                 max_incidence_deg=args.max_incidence_deg, min_altitude=args.min_altitude,
+                 spacing=args.spacing, gimbal_pitch_range_deg=(args.gimbal_min_deg, args.gimbal_max_deg),
+                 lp_time_limit=args.lp_time_limit, progress=progress)
+    if args.evaluate:
+        from .evaluate import evaluate
+        with progress.stage("evaluate"):
+            ev = evaluate(route, scene)
+        route.metrics["evaluation"] = ev.metrics
+    route.save(out, force=True)
+    if not args.quiet:
+        print(plan_summary(route, args.speed, args.shot_seconds))
+        print(f"route written to {out}")
+    return 0
+
+
+def plan_summary(route, speed: float, shot_seconds: float) -> str:
+    m = route.metrics
+    minutes = (route.path_length / speed + int(route.shot.sum()) * shot_seconds) / 60.0
+    rows = [
+        ("shots", f"{m['shots']}" + (f"  (LP lower bound {m['lp_lower_bound_shots']:.1f})"
+                                      if m.get("lp_lower_bound_shots") else "")),
+        ("path length", f"{route.path_length:,.1f} m  (one orbit at the standoff: {m['orbit_length_m']:,.1f} m)"),
+        ("flight time", f"{minutes:.1f} min at {speed:g} m/s, {shot_seconds:g} s per shot"),
+        ("coverage (planned)", f"{m['planned_coverage_pct']:.2f} % of the reachable surface"),
+        ("uncovered samples", f"{len(route.uncovered)}"),
+        ("d_opt / standoff", f"{m['d_opt_m']:.2f} m / {m['standoff_m']:.2f} m"),
+        ("planning time", f"{m['planning_time_s']:.2f} s"),
+    ]
+    ev = m.get("evaluation")
+    if ev:
+        rows.insert(4, ("coverage (evaluated)", f"{ev['coverage_pct']:.2f} %, p-outliers {ev['p_outliers']}"))
+        rows.insert(5, ("min clearance", f"{ev['min_clearance_m']:.2f} m (security {route.security:g} m)"
+                                         + ("" if ev["safe"] else "  UNSAFE")))
+    reasons: dict[str, float] = {}
+    for u in route.uncovered:
+        reasons[u["reason"]] = reasons.get(u["reason"], 0.0) + u.get("area_m2", 0.0)
+    for reason, area in sorted(reasons.items(), key=lambda kv: -kv[1])[:5]:
+        rows.append(("  not covered", f"{area:.1f} m2: {reason}"))
+    for note in route.extra.get("notes", []):
+        rows.append(("  note", note))
+    width = max(len(r[0]) for r in rows)
+    return "\n".join(f"{a.ljust(width)}  {b}" for a, b in rows)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="coverplan", description="Plan safe drone photo flights that cover a building.")
     parser.add_argument("--version", action="version", version=f"coverplan {__version__}")
@@ -103,6 +173,35 @@ def build_parser() -> argparse.ArgumentParser:
                    help="exit 1 when the route is unsafe or coverage is below --min-coverage")
     p.add_argument("--min-coverage", type=float, default=None, metavar="PCT")
     p.set_defaults(func=cmd_evaluate)
+
+    p = sub.add_parser("plan", help="plan a safe flight covering the target surface")
+    _add_scene_args(p, targets_positional=True)
+    _add_camera_args(p)
+    p.add_argument("--gsd", type=float, required=True, metavar="M_PER_PX", help="target ground sampling distance")
+    p.add_argument("--security", type=float, required=True, metavar="M",
+                   help="security distance to keep from every mesh")
+    p.add_argument("--start", nargs=3, type=float, default=None, metavar=("X", "Y", "Z"),
+                   help="start and end point (default: just outside the shot region, north-west)")
+    p.add_argument("--min-views", type=int, default=2)
+    p.add_argument("--min-triangulation-deg", type=float, default=5.0)
+    p.add_argument("--max-incidence-deg", type=float, default=70.0)
+    p.add_argument("--min-altitude", type=float, default=None, metavar="M",
+                   help="lowest flight height above the ground (default: the security distance)")
+    p.add_argument("--gimbal-min-deg", type=float, default=-90.0, help="lowest gimbal pitch (default -90)")
+    p.add_argument("--gimbal-max-deg", type=float, default=30.0, help="highest gimbal pitch (default 30)")
+    p.add_argument("--spacing", type=float, default=None, metavar="M",
+                   help="surface sample spacing (default d_opt/8, coarser for huge targets)")
+    p.add_argument("--speed", type=float, default=5.0, metavar="M_PER_S", help="for the flight time estimate")
+    p.add_argument("--shot-seconds", type=float, default=1.0, help="hover time per shot, for the estimate")
+    p.add_argument("--lp-time-limit", type=float, default=20.0, metavar="S",
+                   help="time for the LP that guides view selection and bounds it (0: plain greedy)")
+    p.add_argument("--no-evaluate", dest="evaluate", action="store_false",
+                   help="skip the independent evaluation of the planned route")
+    p.add_argument("-o", "--output", required=True, metavar="ROUTE.json")
+    p.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summary")
+    p.add_argument("-v", "--verbose", action="store_true", help="log each stage's time")
+    p.set_defaults(func=cmd_plan)
     return parser
 
 

@@ -1,0 +1,55 @@
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import trimesh
+
+sys.path.insert(0, str(Path(__file__).parent))
+
+ROOT = Path(__file__).resolve().parents[1]
+MESHES = ROOT / "meshes"
+
+
+def pytest_addoption(parser):
+    parser.addoption("--slow", action="store_true", default=False, help="also run tests marked slow")
+
+
+def pytest_collection_modifyitems(config, items):
+    if config.getoption("--slow"):
+        return
+    skip = pytest.mark.skip(reason="slow scene; run with --slow (a benchmark covers it)")
+    for item in items:
+        if "slow" in item.keywords:
+            item.add_marker(skip)
+
+
+def box(x0, y0, z0, x1, y1, z1) -> trimesh.Trimesh:
+    mesh = trimesh.creation.box(extents=[x1 - x0, y1 - y0, z1 - z0])
+    mesh.apply_translation([(x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2])
+    return mesh
+
+
+@pytest.fixture
+def thesis_camera():
+    from coverplan import get_camera
+    return get_camera("thesis80")
+
+
+def gsd_for(camera, d_opt: float) -> float:
+    """The GSD whose optimal distance is ``d_opt`` for this camera."""
+    return d_opt * camera.pixel_pitch_mm / camera.focal_length_mm
+
+
+@pytest.fixture
+def write_mesh(tmp_path):
+    def write(mesh, name):
+        path = tmp_path / name
+        mesh.export(path)
+        return path
+    return write
+
+
+np.set_printoptions(precision=4, suppress=True)

@@ -1,0 +1,190 @@
+"""The planner on scenes whose answer we know, judged by the evaluator and by independent checks."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from conftest import MESHES, box, gsd_for
+from independent import images, polyline_min_distance
+
+from coverplan import PlanningError, Route, evaluate, load_scene, plan
+from coverplan.cli import main
+from coverplan.scene import scene_from_meshes
+from coverplan.visibility import widest_pair_angle
+
+SECURITY = 3.0
+SCENES = {
+    "square": ("square_prism.obj", []),
+    "l": ("l_prism.obj", []),
+    "h": ("h_prism.obj", []),
+    "triangle": ("triangle_prism.obj", []),
+    "prism": ("thesis_prism.obj", []),
+    "ring": ("ring_prism.obj", []),
+    "pyramid": ("pyramid.obj", []),
+    "fig411": ("thesis_prism.obj", ["fig411_obstacles.obj"]),
+    "gabled": ("gabled_house.obj", []),
+    "courtyard": ("courtyard.obj", []),
+    "flush": ("flush_target.obj", ["flush_obstacle.obj"]),
+}
+
+
+def load(name):
+    target, obstacles = SCENES[name]
+    return load_scene(MESHES / target, [MESHES / o for o in obstacles])
+
+
+@pytest.fixture(scope="module")
+def planned():
+    """Plan every sample scene once (thesis settings: d_opt 7 m, security 3 m, 80 deg FOV)."""
+    from coverplan import get_camera
+    camera = get_camera("thesis80")
+    out = {}
+    for name in SCENES:
+        scene = load(name)
+        route = plan(scene, camera, gsd=gsd_for(camera, 7.0), security=SECURITY)
+        out[name] = (scene, route, evaluate(route, scene))
+    return out
+
+
+@pytest.mark.parametrize("name", list(SCENES))
+def test_sample_scene_is_covered_and_safe(planned, name):
+    scene, route, ev = planned[name]
+    m = ev.metrics
+    assert m["coverage_pct"] == pytest.approx(100.0), m["coverage_pct"]
+    assert m["p_outliers"] == 0
+    assert m["safe"] and m["min_clearance_m"] >= SECURITY
+    assert m["altitude_violations"] == 0 and m["orientation_mismatches"] == 0
+    assert m["returns_to_start"]
+    # independent of FCL: trimesh distances every 0.3 m along the flight
+    assert polyline_min_distance(route.positions, scene.meshes, SECURITY / 10) >= SECURITY
+    # shots with the same position but different headings stay separate waypoints
+    assert route.shot.sum() == m["shots"] == route.metrics["shots"]
+    legs = route.leg
+    assert legs[0] == "initial" and legs[-1] == "final" and route.shot[legs.index("coverage")]
+
+
+@pytest.mark.parametrize("name", ["square", "fig411"])
+def test_coverage_rechecked_by_brute_force(planned, name):
+    """Count views per sample with plain numpy (no Embree, no shared code) and compare."""
+    scene, route, ev = planned[name]
+    s = ev.samples
+    triangles = np.vstack([m.triangles for m in scene.meshes])
+    hits, rays = [], []
+    for k in route.shots:
+        ok = images(route.positions[k], route.heading_deg[k], route.pitch_deg[k], route.camera, s.points,
+                    s.normals, triangles, route.d_opt, 70.0, offset=scene.epsilon * 4)
+        idx = np.flatnonzero(ok)
+        hits.append(idx)
+        v = route.positions[k] - s.points[idx]
+        rays.append(v / np.linalg.norm(v, axis=1, keepdims=True))
+    pt = np.concatenate(hits)
+    views = np.bincount(pt, minlength=len(s))
+    widest = widest_pair_angle(pt, np.vstack(rays), len(s))
+    covered = (views >= 2) & (widest >= 5.0)
+    assert covered.all()
+    np.testing.assert_array_equal(views, ev.views)
+
+
+def test_small_obstacle_between_slices_leaves_no_gap(planned):
+    """Thesis Figure 4.11: the wall behind the small floating obstacle is covered."""
+    scene, route, ev = planned["fig411"]
+    pts = ev.samples.points
+    behind = (np.abs(pts[:, 1] - 18.5) < 1e-6) & (np.abs(pts[:, 0] - 25) < 2) & (np.abs(pts[:, 2] - 15) < 2)
+    assert behind.sum() > 5
+    assert ev.covered[behind].all()
+
+
+def test_planner_claims_recheck(planned):
+    """Every sample the planner does not list as uncovered is covered by the evaluator's count."""
+    for name, (_scene, route, ev) in planned.items():
+        listed = {tuple(np.round(u["position"], 6)) for u in route.uncovered}
+        claimed = np.array([tuple(np.round(p, 6)) not in listed for p in ev.samples.points])
+        assert ev.covered[claimed].all(), name
+
+
+def test_shots_near_the_lp_bound(planned):
+    for name, (_scene, route, _ev) in planned.items():
+        bound = route.metrics["lp_lower_bound_shots"]
+        assert bound is not None and route.metrics["shots"] <= 1.3 * bound, (name, route.metrics["shots"], bound)
+
+
+def test_obstacle_hiding_part_of_a_wall_plans_the_rest(thesis_camera):
+    wall = box(0, 0, 0, 16, 8, 10)
+    shed = box(5, -2.3, 0, 11, -0.3, 6)  # 0.3 m from the wall: nothing can look behind it
+    scene = scene_from_meshes([wall], [shed])
+    route = plan(scene, thesis_camera, gsd=gsd_for(thesis_camera, 7.0), security=SECURITY)
+    ev = evaluate(route, scene)
+    assert ev.metrics["coverage_pct"] == pytest.approx(100.0)
+    assert ev.safe
+    hidden = [u for u in route.uncovered if "obstacle" in u["reason"]]
+    assert len(hidden) >= 10
+    where = np.array([u["position"] for u in hidden])
+    assert (np.abs(where[:, 1]) < 1e-6).all() and (where[:, 0] > 4.5).all() and (where[:, 0] < 11.5).all()
+    # what the planner lists matches what the evaluator finds unreachable
+    assert ev.metrics["unreachable_samples"] == len(route.uncovered)
+
+
+def test_route_file_round_trip(planned, tmp_path):
+    _scene, route, _ev = planned["gabled"]
+    path = route.save(tmp_path / "r.json")
+    back = Route.load(path)
+    np.testing.assert_allclose(back.positions, route.positions, atol=1e-4)
+    np.testing.assert_array_equal(back.shot, route.shot)
+    assert back.leg == route.leg and back.params == route.params
+    assert list(tmp_path.iterdir()) == [path]  # no temporary file left behind
+    with pytest.raises(Exception, match="--force"):
+        route.save(path, force=False)
+
+
+def cli(capsys, *args):
+    try:
+        code = main([str(a) for a in args])
+    except SystemExit as exc:
+        code = exc.code
+    return code, capsys.readouterr().err
+
+
+@pytest.mark.parametrize("extra, words", [
+    (["--gsd", "0.0005"], ["finest gsd"]),  # d_opt 1.8 m < security 3 m
+    (["--gsd", "0.004", "--start", "20", "20", "4"], ["inside", "l_prism"]),
+    (["--gsd", "0.004", "--start", "13", "25", "4"], ["closer than the security distance"]),
+])
+def test_impossible_settings_end_with_one_line(capsys, tmp_path, extra, words):
+    args = ["plan", MESHES / "l_prism.obj", "--camera", "phantom4pro", "--security", "3",
+            "-o", tmp_path / "r.json", "-q"] + extra
+    code, err = cli(capsys, *args)
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    for w in words:
+        assert w in err.lower()
+    assert not (tmp_path / "r.json").exists()
+
+
+def test_target_with_no_surface(capsys, tmp_path):
+    floor = tmp_path / "floor.obj"
+    floor.write_text("v 0 0 0\nv 10 0 0\nv 10 10 0\nv 0 10 0\nf 1 3 2\nf 1 4 3\n")  # faces down, on the ground
+    code, err = cli(capsys, "plan", floor, "--camera", "phantom4pro", "--gsd", "0.004", "--security", "3",
+                    "-o", tmp_path / "r.json", "-q")
+    assert code == 2 and "no surface" in err and len(err.strip().splitlines()) == 1
+
+
+def test_plan_refuses_to_overwrite(capsys, tmp_path):
+    out = tmp_path / "r.json"
+    out.write_text("{}")
+    code, err = cli(capsys, "plan", MESHES / "gabled_house.obj", "--camera", "phantom4pro", "--gsd", "0.004",
+                    "--security", "3", "-o", out, "-q")
+    assert code == 2 and "--force" in err
+    assert out.read_text() == "{}"
+
+
+def test_start_is_where_the_flight_begins_and_ends(thesis_camera):
+    scene = load("square")
+    start = np.array([0.0, 50.0, 3.0])
+    route = plan(scene, thesis_camera, gsd=gsd_for(thesis_camera, 7.0), security=SECURITY, start=start)
+    np.testing.assert_allclose(route.positions[0], start)
+    np.testing.assert_allclose(route.positions[-1], start)
+
+
+def test_impossible_gsd_error_names_the_finest_possible(thesis_camera):
+    scene = load("square")
+    with pytest.raises(PlanningError, match="finest GSD"):
+        plan(scene, thesis_camera, gsd=gsd_for(thesis_camera, 2.5), security=SECURITY)
