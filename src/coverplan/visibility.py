@@ -20,9 +20,12 @@ from .orientation import camera_axes
 
 def imaging_pairs(positions, headings, pitches, camera, points, normals, rays, *,
                   max_range: float, max_incidence_deg: float, shrink: float = 0.0,
-                  offset: float = 1e-3, cameras_per_chunk: int = 256, progress=None):
+                  offset: float = 1e-3, cameras_per_chunk: int = 64, progress=None):
     """All (camera, point) pairs where the camera images the point, with their ranges.
 
+    Cameras are taken in spatially compact chunks; each chunk's candidate points come from one
+    KD-tree ball query, and the frustum, range and incidence tests run as dense matrix
+    products over (points x cameras) before the surviving pairs are ray cast.
     Returns ``(camera_index, point_index, range)`` arrays.
     """
     positions = np.asarray(positions, dtype=float).reshape(-1, 3)
@@ -38,29 +41,48 @@ def imaging_pairs(positions, headings, pitches, camera, points, normals, rays, *
     if len(positions) == 0 or len(points) == 0:
         return empty
     point_tree = cKDTree(points)
+    # The smallest ball around a frustum's part within range passes through the camera and
+    # the rim of the spherical cap whose half-angle is the image corner's angle off the axis.
+    corner_cos = 1.0 / np.sqrt(1.0 + tan_h ** 2 + tan_v ** 2)
+    ball = reach / (2.0 * corner_cos) if corner_cos >= 0.5 else reach
+    centres = positions + forward * ball if corner_cos >= 0.5 else positions
+    order = _spatial_order(centres, ball)
     out_i, out_j, out_r = [], [], []
-    for lo in range(0, len(positions), cameras_per_chunk):
-        hi = min(lo + cameras_per_chunk, len(positions))
-        pairs = cKDTree(positions[lo:hi]).sparse_distance_matrix(point_tree, reach, output_type="ndarray")
-        i = pairs["i"].astype(np.int64) + lo
-        j = pairs["j"].astype(np.int64)
-        v = points[j] - positions[i]
-        dist = np.linalg.norm(v, axis=1)
-        z = np.einsum("ij,ij->i", v, forward[i])
-        x = np.einsum("ij,ij->i", v, right[i])
-        y = np.einsum("ij,ij->i", v, up[i])
-        facing = -np.einsum("ij,ij->i", v, normals[j]) >= cos_inc * dist
-        ok = (z > 0) & (np.abs(x) <= tan_h * z) & (np.abs(y) <= tan_v * z) & facing & (dist > 0)
-        i, j, dist = i[ok], j[ok], dist[ok]
+    for lo in range(0, len(order), cameras_per_chunk):
+        cams = order[lo:lo + cameras_per_chunk]
+        middle = centres[cams].mean(axis=0)
+        radius = np.linalg.norm(centres[cams] - middle, axis=1).max() + ball
+        near = np.asarray(point_tree.query_ball_point(middle, radius * (1 + 1e-9)), dtype=np.int64)
+        if len(near) == 0:
+            continue
+        p, n = points[near], normals[near]
+        c = positions[cams]
+        x = p @ right[cams].T - np.einsum("ij,ij->i", c, right[cams])
+        y = p @ up[cams].T - np.einsum("ij,ij->i", c, up[cams])
+        z = p @ forward[cams].T - np.einsum("ij,ij->i", c, forward[cams])
+        dist = np.sqrt(x * x + y * y + z * z)
+        facing = (n @ c.T - np.einsum("ij,ij->i", p, n)[:, None]) >= cos_inc * dist
+        ok = ((z > 0) & (np.abs(x) <= tan_h * z) & (np.abs(y) <= tan_v * z) & (dist <= reach)
+              & (dist > 0) & facing)
+        jj, kk = np.nonzero(ok)
+        i, j, d = cams[kk], near[jj], dist[jj, kk]
         if len(i):
             blocked = rays.segments_blocked(points[j] + normals[j] * offset, positions[i])
-            i, j, dist = i[~blocked], j[~blocked], dist[~blocked]
+            i, j, d = i[~blocked], j[~blocked], d[~blocked]
         out_i.append(i)
         out_j.append(j)
-        out_r.append(dist)
+        out_r.append(d)
         if progress is not None:
-            progress(hi - lo)
+            progress(len(cams))
+    if not out_i:
+        return empty
     return np.concatenate(out_i), np.concatenate(out_j), np.concatenate(out_r)
+
+
+def _spatial_order(points, cell: float) -> np.ndarray:
+    """Indices of points sorted cell by cell, so consecutive chunks are spatially compact."""
+    key = np.floor((points - points.min(axis=0)) / max(cell, 1e-9)).astype(np.int64)
+    return np.lexsort((key[:, 2], key[:, 1], key[:, 0]))
 
 
 def visibility_matrix(n_cameras: int, n_points: int, pairs) -> sp.csr_matrix:
@@ -94,13 +116,12 @@ def widest_pair_angle(point_index, rays, n_points: int, max_block: int = 4_000_0
         members = many[size_class == c]
         k = int(counts[members].max())
         step = max(1, max_block // (k * k))
+        slot = np.arange(k)
         for lo in range(0, len(members), step):
             block = members[lo:lo + step]
-            slot = np.arange(k)
-            valid = slot[None, :] < counts[block][:, None]
-            idx = np.where(valid, starts[block][:, None] + slot[None, :], 0)
-            vec = np.where(valid[..., None], sorted_rays[idx], np.nan)
-            cos = np.einsum("pad,pbd->pab", vec, vec)
-            cos = np.where(np.isnan(cos), 1.0, cos)
+            # Pad with the point's first ray: a repeated ray changes no angle.
+            idx = starts[block][:, None] + np.where(slot[None, :] < counts[block][:, None], slot[None, :], 0)
+            vec = sorted_rays[idx]
+            cos = np.matmul(vec, vec.transpose(0, 2, 1))
             widest[block] = np.degrees(np.arccos(np.clip(cos.min(axis=(1, 2)), -1.0, 1.0)))
     return widest

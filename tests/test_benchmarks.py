@@ -1,0 +1,23 @@
+"""Every benchmark script runs in --quick mode, prints its table and writes its JSON."""
+
+import json
+import runpy
+import sys
+from pathlib import Path
+
+import pytest
+
+BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
+SCRIPTS = sorted(p.stem for p in BENCH.glob("*.py") if p.stem != "common")
+
+
+@pytest.mark.parametrize("name", SCRIPTS)
+def test_benchmark_quick(name, capsys, monkeypatch):
+    monkeypatch.syspath_prepend(str(BENCH))
+    monkeypatch.setattr(sys, "argv", [name, "--quick"])
+    runpy.run_path(str(BENCH / f"{name}.py"), run_name="__main__")
+    out = capsys.readouterr().out
+    assert "written" in out
+    result = BENCH / "results" / f"{name}_quick.json"
+    data = json.loads(result.read_text())
+    assert data["machine"] and data["rows"]
