@@ -57,8 +57,8 @@ def test_sample_scene_is_covered_and_safe(planned, name):
     assert m["returns_to_start"]
     # independent of FCL: trimesh distances every 0.3 m along the flight
     assert polyline_min_distance(route.positions, scene.meshes, SECURITY / 10) >= SECURITY
-    # shots with the same position but different headings stay separate waypoints
-    assert route.shot.sum() == m["shots"] == route.metrics["shots"]
+    # every selected view is flown: shots sharing a position (different headings) are not merged
+    assert route.shot.sum() == m["shots"] == route.metrics["selected_views"]
     legs = route.leg
     assert legs[0] == "initial" and legs[-1] == "final" and route.shot[legs.index("coverage")]
 
@@ -188,3 +188,27 @@ def test_impossible_gsd_error_names_the_finest_possible(thesis_camera):
     scene = load("square")
     with pytest.raises(PlanningError, match="finest GSD"):
         plan(scene, thesis_camera, gsd=gsd_for(thesis_camera, 2.5), security=SECURITY)
+
+
+def test_same_position_different_headings_stay_two_shots(thesis_camera, tmp_path):
+    """Thesis Table 4.1 lost one of two shots at the same spot; the route keeps both."""
+    scene = load("square")
+    p = np.array([25.0, 12.0, 4.0])
+    route = Route([p + [0, -5, 0], p, p, p + [0, -5, 0]], [False, True, True, False], [0, 0, 30, 0],
+                  [0, 0, 0, 0], ["initial", "coverage", "coverage", "final"], thesis_camera,
+                  {"gsd_m": gsd_for(thesis_camera, 7.0), "security_m": SECURITY})
+    back = Route.load(route.save(tmp_path / "two.json"))
+    assert back.shot.sum() == 2 and list(back.heading_deg[1:3]) == [0, 30]
+    ev = back.evaluate(scene)
+    assert ev.metrics["shots"] == 2 and ev.metrics["db_viewpoints_m"]["min"] == 0.0
+
+
+def test_strict_evaluation_fails_unsafe_routes(capsys, tmp_path, thesis_camera):
+    p = np.array([25.0, 16.5, 4.0])  # 1 m from the square prism's south wall
+    route = Route([p, p], [True, False], [0, 0], [0, 0], ["coverage", "final"], thesis_camera,
+                  {"gsd_m": gsd_for(thesis_camera, 7.0), "security_m": SECURITY})
+    path = route.save(tmp_path / "close.json")
+    code, _err = cli(capsys, "evaluate", path, "--target", MESHES / "square_prism.obj", "--strict")
+    assert code == 1
+    code, _err = cli(capsys, "evaluate", path, "--target", MESHES / "square_prism.obj")
+    assert code == 0

@@ -200,6 +200,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     reachable_area = float(samples.area[reach.reachable].sum())
     route.metrics = {
         "shots": int(route.shot.sum()),
+        "selected_views": int(len(chosen)),
         "path_length_m": route.path_length,
         "planned_coverage_pct": 100.0 * covered_area / reachable_area if reachable_area else 0.0,
         "reachable_area_m2": reachable_area,

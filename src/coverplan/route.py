@@ -193,6 +193,11 @@ class Route:
                    view_dir=vdir, frame=frame, uncovered=uncovered, metrics=data.get("metrics") or {},
                    extra=data.get("planner") or {})
 
+    def evaluate(self, scene, **options):
+        """The evaluator's verdict on this route in ``scene`` (see coverplan.evaluate)."""
+        from .evaluate import evaluate
+        return evaluate(self, scene, **options)
+
     def orientation_errors_deg(self) -> np.ndarray:
         """Angle between each waypoint's view_dir and the one its heading and pitch give."""
         return angle_between_deg(self.view_dir, view_direction(self.heading_deg, self.pitch_deg))
