@@ -114,15 +114,48 @@ def cmd_plan(args) -> int:
                  max_incidence_deg=args.max_incidence_deg, min_altitude=args.min_altitude,
                  spacing=args.spacing, gimbal_pitch_range_deg=(args.gimbal_min_deg, args.gimbal_max_deg),
                  lp_time_limit=args.lp_time_limit, progress=progress)
-    if args.evaluate:
+    ev = None
+    if args.evaluate or args.report or args.plot:
         from .evaluate import evaluate
         with progress.stage("evaluate"):
             ev = evaluate(route, scene)
         route.metrics["evaluation"] = ev.metrics
     route.save(out, force=True)
+    written = [out]
+    written += _pictures(route, scene, ev, args.report, args.plot, progress)
     if not args.quiet:
         print(plan_summary(route, args.speed, args.shot_seconds))
-        print(f"route written to {out}")
+        print("written: " + ", ".join(str(p) for p in written))
+    return 0
+
+
+def _pictures(route, scene, ev, report, plot, progress) -> list:
+    written = []
+    if report:
+        from .report import write_html_report
+        with progress.stage("HTML report"):
+            written.append(write_html_report(route, scene, report, evaluation=ev))
+    if plot:
+        from .report import write_figures
+        with progress.stage("PNG figures"):
+            written += write_figures(route, scene, plot, evaluation=ev)
+    return written
+
+
+def cmd_report(args) -> int:
+    from .evaluate import evaluate
+    from .progress import Progress
+    from .route import Route
+    if not args.report and not args.plot:
+        raise ParameterError("give -o REPORT.html and/or --plot PREFIX")
+    route = Route.load(args.route)
+    scene = _scene(args)
+    progress = Progress(bars=not args.quiet, verbose=args.verbose)
+    with progress.stage("evaluate"):
+        ev = evaluate(route, scene, spacing=args.spacing)
+    written = _pictures(route, scene, ev, args.report, args.plot, progress)
+    if not args.quiet:
+        print("written: " + ", ".join(str(p) for p in written))
     return 0
 
 
@@ -198,10 +231,28 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-evaluate", dest="evaluate", action="store_false",
                    help="skip the independent evaluation of the planned route")
     p.add_argument("-o", "--output", required=True, metavar="ROUTE.json")
+    p.add_argument("--report", default=None, metavar="REPORT.html", help="also write the HTML flight report")
+    p.add_argument("--plot", default=None, metavar="PREFIX", help="also write PNG figures PREFIX_*.png")
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summary")
     p.add_argument("-v", "--verbose", action="store_true", help="log each stage's time")
     p.set_defaults(func=cmd_plan)
+
+    for name, helptext in (("report", "write the HTML flight report (and/or PNG figures) of a route"),
+                           ("plot", "write PNG figures (and/or the HTML report) of a route")):
+        p = sub.add_parser(name, help=helptext)
+        p.add_argument("route", metavar="ROUTE.json")
+        _add_scene_args(p, targets_positional=False)
+        p.add_argument("--spacing", type=float, default=None, metavar="M")
+        if name == "report":
+            p.add_argument("-o", "--output", dest="report", default=None, metavar="REPORT.html")
+            p.add_argument("--plot", default=None, metavar="PREFIX")
+        else:
+            p.add_argument("-o", "--output", dest="plot", default=None, metavar="PREFIX")
+            p.add_argument("--report", default=None, metavar="REPORT.html")
+        p.add_argument("-q", "--quiet", action="store_true")
+        p.add_argument("-v", "--verbose", action="store_true")
+        p.set_defaults(func=cmd_report)
     return parser
 
 

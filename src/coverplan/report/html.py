@@ -1,0 +1,223 @@
+"""One self-contained HTML file per plan: 3D view, coverage colours, road map, metrics.
+
+three.js and its orbit controls are embedded (as data: URLs in an import map), so the file
+opens offline in any current browser. Numeric arrays travel as base64 float32/uint8.
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+MAX_DISPLAY_FACES = 300_000
+LEG_CODES = {"initial": 0, "coverage": 1, "final": 2}
+
+
+def _b64(array, dtype) -> str:
+    return base64.b64encode(np.ascontiguousarray(array, dtype=dtype).tobytes()).decode("ascii")
+
+
+def _asset(name: str) -> str:
+    return resources.files("coverplan.report").joinpath("assets", name).read_text(encoding="utf-8")
+
+
+def display_mesh(mesh, max_faces: int = MAX_DISPLAY_FACES):
+    """Vertices and faces for display; very large meshes are thinned by vertex clustering."""
+    vertices, faces = np.asarray(mesh.vertices), np.asarray(mesh.faces)
+    if len(faces) <= max_faces:
+        return vertices, faces
+    cell = np.sqrt(mesh.area / max_faces) * 1.2
+    key = np.floor(vertices / cell).astype(np.int64)
+    _, cluster, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    cluster = cluster.ravel()
+    merged = np.zeros((len(counts), 3))
+    np.add.at(merged, cluster, vertices)
+    merged /= counts[:, None]
+    f = cluster[faces]
+    keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
+    return merged, f[keep]
+
+
+def report_data(route, scene, evaluation) -> dict:
+    """Everything the viewer draws, as JSON-ready values."""
+    samples = evaluation.samples
+    cam, pt, rng = evaluation.pairs
+    best = np.full(len(samples), np.inf)
+    np.minimum.at(best, pt, rng)
+    gsd = np.where(np.isfinite(best), route.camera.gsd_at(best), -1.0)
+    status = np.where(evaluation.covered | ~evaluation.reachable, 0, 1)
+    status = np.where(evaluation.reachable, status, 2).astype(np.uint8)
+    lo, hi = scene.bounds()
+    lo = np.minimum(lo, route.positions.min(axis=0))
+    hi = np.maximum(hi, route.positions.max(axis=0))
+    meshes = []
+    for part in scene.parts:
+        v, f = display_mesh(part.mesh)
+        meshes.append({"name": part.name, "role": part.role, "positions": _b64(v, np.float32),
+                       "indices": _b64(f, np.uint32)})
+    return {
+        "meshes": meshes,
+        "samples": {"positions": _b64(samples.points, np.float32),
+                    "views": _b64(np.minimum(evaluation.views, 255), np.uint8),
+                    "gsd": _b64(gsd, np.float32), "status": _b64(status, np.uint8)},
+        "waypoints": {"positions": _b64(route.positions, np.float32), "shot": _b64(route.shot, np.uint8),
+                      "heading": _b64(route.heading_deg, np.float32), "pitch": _b64(route.pitch_deg, np.float32),
+                      "leg": _b64([LEG_CODES[x] for x in route.leg], np.uint8)},
+        "camera": {"hfov_deg": route.camera.hfov_deg, "vfov_deg": route.camera.vfov_deg},
+        "params": {k: v for k, v in route.params.items() if isinstance(v, (int, float))},
+        "centre": ((lo + hi) / 2).tolist(),
+        "radius": float(np.linalg.norm(hi - lo) / 2),
+        "sample_size": float(max(samples.spacing * 0.6, 0.05)),
+        "frustum_depth": float(max(route.d_opt * 0.12, 0.3)),
+    }
+
+
+def _fmt(v) -> str:
+    if v is None:
+        return "–"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, float):
+        return f"{v:,.3f}" if abs(v) < 10 else f"{v:,.1f}"
+    return html.escape(str(v))
+
+
+def _rows(pairs) -> str:
+    return "\n".join(f"<tr><td class=l>{html.escape(str(k))}</td><td>{v}</td></tr>" for k, v in pairs)
+
+
+def metrics_rows(m: dict) -> list[tuple[str, str]]:
+    def stats(s, unit=""):
+        return " / ".join(_fmt(s[k]) for k in ("min", "mean", "max")) + unit
+    safe = "yes" if m["safe"] else "<span class=bad>NO</span>"
+    rows = [("safe", safe),
+            ("min clearance", f"{_fmt(m['min_clearance_m'])} m (security {_fmt(m['security_m'])} m)"),
+            ("unsafe segments", _fmt(m["unsafe_segment_count"])),
+            ("altitude violations", _fmt(m["altitude_violations"])),
+            ("coverage of reachable surface", f"{m['coverage_pct']:.2f} %"),
+            ("reachable / total surface", f"{m['reachable_area_m2']:,.1f} / {m['surface_area_m2']:,.1f} m²"),
+            ("uncovered reachable", f"{m['uncovered_reachable_area_m2']:,.1f} m²"),
+            ("unreachable", f"{m['unreachable_area_m2']:,.1f} m²")]
+    rows += [(f"coverage of {k.replace('_', ' ')}", f"{v:.2f} %") for k, v in m["coverage_by_class_pct"].items()]
+    rows += [("shots", _fmt(m["shots"])), ("path length", f"{m['path_length_m']:,.1f} m"),
+             ("nt-imaged (min / mean / max)", stats(m["nt_imaged"])),
+             ("d-image (min / mean / max)", stats(m["d_image_m"], " m")),
+             ("db-viewpoints (min / mean / max)", stats(m["db_viewpoints_m"], " m")),
+             ("p-outliers", _fmt(m["p_outliers"])), ("shots per m²", f"{m['shots_per_m2']:.4f}"),
+             ("path m per m²", f"{m['path_m_per_m2']:.4f}")]
+    return rows
+
+
+def road_map_rows(route, ground_z: float) -> str:
+    rows = []
+    for k in range(len(route)):
+        x, y, z = route.positions[k]
+        shot = "yes" if route.shot[k] else ""
+        rows.append(f"<tr><td>{k}</td><td>{x:.2f}</td><td>{y:.2f}</td><td>{z:.2f}</td><td>{z - ground_z:.2f}</td>"
+                    f"<td>{route.heading_deg[k]:.1f}</td><td>{route.pitch_deg[k]:.1f}</td><td class=l>{shot}</td>"
+                    f"<td class=l>{route.leg[k]}</td></tr>")
+    return "\n".join(rows)
+
+
+def uncovered_rows(evaluation) -> str:
+    groups = evaluation.metrics["unreachable"]
+    rows = [f"<tr><td class=l>{html.escape(g['reason'])}</td><td>{g['count']}</td><td>{g['area_m2']:.1f}</td>"
+            f"<td>({', '.join(f'{c:.1f}' for c in g['centroid'])})</td></tr>" for g in groups]
+    missed = evaluation.metrics["uncovered_reachable_samples"]
+    if missed:
+        rows.append(f"<tr><td class=l>reachable but not covered by this route</td><td>{missed}</td>"
+                    f"<td>{evaluation.metrics['uncovered_reachable_area_m2']:.1f}</td><td></td></tr>")
+    return "\n".join(rows) or "<tr><td class=l>nothing: every sample is covered</td><td></td><td></td><td></td></tr>"
+
+
+def render_html(route, scene, evaluation, title: str = "coverplan flight report") -> str:
+    data = report_data(route, scene, evaluation)
+    three = base64.b64encode(_asset("three.module.min.js").encode()).decode()
+    orbit = base64.b64encode(_asset("OrbitControls.js").encode()).decode()
+    import_map = {"imports": {"three": f"data:text/javascript;base64,{three}",
+                              "three/addons/controls/OrbitControls.js": f"data:text/javascript;base64,{orbit}"}}
+    cam = route.camera
+    params = [("camera", f"{cam.name or 'custom'}: {cam.sensor_width_mm:g} × {cam.sensor_height_mm:g} mm, "
+                         f"{cam.focal_length_mm:g} mm, {cam.image_width_px} × {cam.image_height_px} px"),
+              ("GSD", f"{route.gsd * 1000:g} mm/px (d_opt {route.d_opt:.2f} m)"),
+              ("security distance", f"{route.security:g} m"),
+              ("min views / triangulation", f"{route.param('min_views')} / {route.param('min_triangulation_deg')}°"),
+              ("max incidence", f"{route.param('max_incidence_deg')}°")]
+    if "min_altitude_m" in route.params:
+        params.append(("min altitude above ground", f"{route.params['min_altitude_m']:g} m"))
+    pm = route.metrics or {}
+    if pm.get("planning_time_s") is not None:
+        params.append(("planning time", f"{pm['planning_time_s']:.2f} s"))
+        stages = ", ".join(f"{k} {v:.2f} s" for k, v in pm.get("stage_seconds", {}).items())
+        if stages:
+            params.append(("stages", stages))
+    if route.frame.get("crs"):
+        params.append(("CRS / origin", f"{route.frame['crs']} / {route.frame['origin']}"))
+    ground = float(route.params.get("ground_z_m", scene.ground_z))
+    data_json = json.dumps(data).replace("</", "<\\/")
+    return f"""<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<title>{html.escape(title)}</title>
+<style>{_asset('report.css')}</style>
+<script type="importmap">{json.dumps(import_map)}</script>
+</head><body>
+<header><h1>{html.escape(title)}</h1>
+<p>{evaluation.metrics['shots']} shots, {route.path_length:,.0f} m of flight,
+{evaluation.metrics['coverage_pct']:.2f} % of the reachable surface covered,
+minimum clearance {evaluation.metrics['min_clearance_m']:.2f} m
+{'' if evaluation.safe else '— <b>UNSAFE</b>'}</p></header>
+<main>
+<div id="view"></div>
+<div class="controls">
+ <div>show:
+  <label><input type=checkbox data-layer=targets checked>target</label>
+  <label><input type=checkbox data-layer=obstacles checked>obstacles</label>
+  <label><input type=checkbox data-layer=samples checked>coverage</label>
+  <label><input type=checkbox data-layer=uncovered checked>uncovered</label>
+  <label><input type=checkbox data-layer=path checked>path</label>
+  <label><input type=checkbox data-layer=shots checked>shots</label>
+  <label><input type=checkbox data-layer=start checked>start</label></div>
+ <div>colour samples by:
+  <label><input type=radio name=colour value=views checked>valid views</label>
+  <label><input type=radio name=colour value=gsd>achieved GSD</label></div>
+ <div class=legend>views<span style="background:#e53e3e"></span>0<span style="background:#ed8936"></span>1
+  <span style="background:#9ae6b4"></span>2<span style="background:#2f855a"></span>3+
+  <span style="background:#d53f8c"></span>missed<span style="background:#553c9a"></span>unreachable
+  &nbsp; path<span style="background:#2b6cb0"></span>initial<span style="background:#dd6b20"></span>coverage
+  <span style="background:#805ad5"></span>final</div>
+</div>
+<div class=cols>
+<section><h2>Parameters</h2><table>{_rows(params)}</table></section>
+<section><h2>Metrics</h2><table>{_rows(metrics_rows(evaluation.metrics))}</table></section>
+<section><h2>Not covered, and why</h2><table><tr><th class=l>reason</th><th>samples</th><th>m²</th><th>around</th></tr>
+{uncovered_rows(evaluation)}</table></section>
+</div>
+<section><h2>Road map ({len(route)} waypoints)</h2>
+<div class=scroll><table id="road-map"><thead><tr><th>#</th><th>x</th><th>y</th><th>z</th><th>altitude</th>
+<th>heading °</th><th>gimbal °</th><th class=l>shot</th><th class=l>leg</th></tr></thead>
+<tbody>
+{road_map_rows(route, ground)}
+</tbody></table></div></section>
+</main>
+<script type="application/json" id="report-data">{data_json}</script>
+<script type="module">{_asset('viewer.js')}</script>
+</body></html>
+"""
+
+
+def write_html_report(route, scene, path, evaluation=None, title: str | None = None) -> Path:
+    """Write the report for ``route`` in ``scene`` (evaluating it unless given)."""
+    if evaluation is None:
+        from ..evaluate import evaluate
+        evaluation = evaluate(route, scene)
+    path = Path(path)
+    path.write_text(render_html(route, scene, evaluation, title or f"coverplan flight report: {path.stem}"),
+                    encoding="utf-8")
+    return path
+

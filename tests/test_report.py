@@ -1,0 +1,108 @@
+"""The HTML report in headless Chromium, the PNG figures, and progress output."""
+
+from __future__ import annotations
+
+import shutil
+
+import numpy as np
+import pytest
+from conftest import MESHES, gsd_for
+
+from coverplan import evaluate, load_scene, plan
+from coverplan.cli import main
+from coverplan.report import write_figures, write_html_report
+
+CHROME_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-background-networking",
+                "--disable-component-update", "--disable-sync", "--window-size=1300,1000"]
+
+
+@pytest.fixture(scope="module")
+def planned_house():
+    from coverplan import get_camera
+    camera = get_camera("thesis80")
+    scene = load_scene(MESHES / "gabled_house.obj")
+    route = plan(scene, camera, gsd=gsd_for(camera, 7.0), security=3.0)
+    return scene, route, evaluate(route, scene)
+
+
+def chromium():
+    try:
+        from selenium import webdriver
+        from selenium.webdriver.chrome.service import Service
+    except ImportError:
+        pytest.skip("selenium is not installed (pip install '.[test]')")
+    binary, driver = shutil.which("chromium"), shutil.which("chromedriver")
+    if not binary or not driver:
+        pytest.skip("Chromium / chromedriver not installed (Debian: apt-get install chromium chromium-driver)")
+    opts = webdriver.ChromeOptions()
+    for flag in CHROME_FLAGS:
+        opts.add_argument(flag)
+    opts.binary_location = binary
+    opts.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    return webdriver.Chrome(service=Service(driver), options=opts)
+
+
+def test_report_renders_in_headless_chromium(planned_house, tmp_path):
+    import io
+    import time
+
+    import matplotlib.image as mpimg
+
+    scene, route, ev = planned_house
+    path = write_html_report(route, scene, tmp_path / "house.html", evaluation=ev)
+    assert path.stat().st_size < 10e6
+    browser = chromium()
+    try:
+        browser.get(path.as_uri())
+        for _ in range(200):
+            if browser.execute_script("return window.reportReady === true"):
+                break
+            time.sleep(0.05)
+        assert browser.execute_script("return window.reportReady === true"), "viewer never finished"
+        errors = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
+        assert not errors, errors
+        rows = browser.execute_script("return document.querySelectorAll('#road-map tbody tr').length")
+        assert rows == len(route)
+        canvas = browser.find_element("css selector", "#view canvas")
+        shot = mpimg.imread(io.BytesIO(canvas.screenshot_as_png), format="png")
+        assert shot.shape[0] > 200 and shot.shape[1] > 200
+        assert shot[..., :3].std() > 0.02  # drawn, not a blank canvas
+        # toggling layers and colouring does not raise
+        browser.execute_script("document.querySelector('input[value=gsd]').click();"
+                               "document.querySelector('input[data-layer=path]').click();")
+        assert not [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
+    finally:
+        browser.quit()
+
+
+def test_report_is_self_contained(planned_house, tmp_path):
+    scene, route, ev = planned_house
+    text = write_html_report(route, scene, tmp_path / "r.html", evaluation=ev).read_text()
+    assert "http://" not in text.replace("http://www.w3.org", "") and "https://" not in text
+    assert text.count("<tr><td>") >= len(route)
+
+
+def test_png_figures(planned_house, tmp_path):
+    import matplotlib.image as mpimg
+    scene, route, ev = planned_house
+    paths = write_figures(route, scene, tmp_path / "house", evaluation=ev)
+    assert [p.name for p in paths] == ["house_overview.png", "house_slices.png", "house_coverage.png"]
+    for p in paths:
+        img = mpimg.imread(p)
+        assert img.shape[0] > 300 and np.asarray(img)[..., :3].std() > 0.05
+
+
+def test_cli_report_and_verbose_timings(tmp_path, capsys):
+    out = tmp_path / "r.json"
+    code = main(["plan", str(MESHES / "gabled_house.obj"), "--camera", "phantom4pro", "--gsd", "0.004",
+                 "--security", "3", "-o", str(out), "-v", "--report", str(tmp_path / "r.html")])
+    captured = capsys.readouterr()
+    assert code == 0 and (tmp_path / "r.html").exists()
+    for stage in ("visibility matrix", "view selection", "lattice and Dijkstra", "tour"):
+        assert f"[coverplan] {stage}:" in captured.err
+    assert "written:" in captured.out
+    code = main(["report", str(out), "--target", str(MESHES / "gabled_house.obj"), "-o", str(tmp_path / "b.html"),
+                 "--plot", str(tmp_path / "b"), "-q"])
+    captured = capsys.readouterr()
+    assert code == 0 and captured.out == "" and captured.err == ""
+    assert (tmp_path / "b.html").exists() and (tmp_path / "b_overview.png").exists()
