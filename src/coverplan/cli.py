@@ -34,12 +34,47 @@ def _add_scene_args(p, targets_positional: bool):
                    help="in multi-object target files, the objects that are targets (others are obstacles)")
     p.add_argument("--up-axis", choices=["y", "z"], default=None,
                    help="up axis of the mesh files (default z; glTF/GLB default y)")
+    p.add_argument("--building", default=None, metavar="ID",
+                   help="CityGML/CityJSON: id of the target building (the others nearby become obstacles)")
+    p.add_argument("--lod", type=int, default=None, help="CityGML/CityJSON: level of detail (default: highest)")
+    p.add_argument("--context-radius", type=float, default=None, metavar="M",
+                   help="CityGML/CityJSON: city objects within this distance become obstacles (default 150)")
+    p.add_argument("--crs", default=None, metavar="EPSG:XXXX",
+                   help="projected CRS of mesh coordinates that carry none (for geographic exports)")
+    p.add_argument("--geo-origin", nargs=3, type=float, default=None, metavar=("LAT", "LON", "H"),
+                   help="or: the geodetic position of the mesh frame's origin (x east, y north, z up)")
 
 
 def _scene(args):
     from .scene import load_scene
     return load_scene(args.targets, args.obstacles, units=args.units, ground=args.ground,
-                      target_names=args.target_names, up_axis=args.up_axis)
+                      target_names=args.target_names, up_axis=args.up_axis, building=args.building,
+                      lod=args.lod, context_radius=args.context_radius, crs=args.crs,
+                      geodetic_origin=args.geo_origin)
+
+
+GEOGRAPHIC = {"qgc", "wpl", "litchi", "kml", "geojson"}
+
+
+def _formats(text: str | None) -> list[str]:
+    from .io import writer_names
+    if not text:
+        return []
+    names = [n.strip().lower() for n in text.split(",") if n.strip()]
+    unknown = [n for n in names if n not in writer_names()]
+    if unknown:
+        raise ParameterError(f"unknown export format {', '.join(unknown)}; formats: {', '.join(writer_names())}")
+    return names
+
+
+def _export(route, stem, formats, **options) -> list:
+    """Write ``route`` in each format as STEM + the format's suffix."""
+    from .io import writer
+    written = []
+    for name in formats:
+        func, suffix = writer(name)
+        written += func(route, f"{stem}{suffix}", **options)
+    return written
 
 
 def _camera(args) -> Camera:
@@ -106,9 +141,13 @@ def cmd_plan(args) -> int:
         raise ParameterError(f"{out.parent} does not exist (output folder for {out.name})")
     camera = _camera(args)
     check_positive("--speed", args.speed)
+    formats = _formats(args.export)
     progress = Progress(bars=not args.quiet, verbose=args.verbose)
     with progress.stage("load scene"):
         scene = _scene(args)
+    if set(formats) & GEOGRAPHIC and not (scene.crs or scene.geodetic_origin):
+        raise ParameterError(f"{', '.join(sorted(set(formats) & GEOGRAPHIC))} export needs a georeference: "
+                             "the input has no CRS; pass --crs EPSG:XXXX or --geo-origin LAT LON H")
     route = plan(scene, camera, gsd=args.gsd, security=args.security, start=args.start,
                  min_views=args.min_views, min_triangulation_deg=args.min_triangulation_deg,
                  max_incidence_deg=args.max_incidence_deg, min_altitude=args.min_altitude,
@@ -123,6 +162,8 @@ def cmd_plan(args) -> int:
     route.save(out, force=True)
     written = [out]
     written += _pictures(route, scene, ev, args.report, args.plot, progress)
+    stem = str(out)[:-5] if str(out).lower().endswith(".json") else str(out)
+    written += _export(route, stem, formats, firmware=args.firmware, speed=args.speed)
     if not args.quiet:
         print(plan_summary(route, args.speed, args.shot_seconds))
         print("written: " + ", ".join(str(p) for p in written))
@@ -182,10 +223,46 @@ def plan_summary(route, speed: float, shot_seconds: float) -> str:
         reasons[u["reason"]] = reasons.get(u["reason"], 0.0) + u.get("area_m2", 0.0)
     for reason, area in sorted(reasons.items(), key=lambda kv: -kv[1])[:5]:
         rows.append(("  not covered", f"{area:.1f} m2: {reason}"))
-    for note in route.extra.get("notes", []):
+    for note in summarize_notes(route.extra.get("notes", [])):
         rows.append(("  note", note))
     width = max(len(r[0]) for r in rows)
     return "\n".join(f"{a.ljust(width)}  {b}" for a, b in rows)
+
+
+def summarize_notes(notes: list[str], limit: int = 10) -> list[str]:
+    """Notes that repeat with another mesh's name or another count are told once, with a tally."""
+    import re
+    groups: dict[str, list[str]] = {}
+    for note in notes:
+        key = re.sub(r"\d+", "N", note.split(": ", 1)[-1]) if ": " in note else note
+        groups.setdefault(key, []).append(note)
+    out = []
+    for key, items in groups.items():
+        out.append(items[0] if len(items) == 1 else f"{key.replace('N', 'some')} ({len(items)} meshes)")
+    return out[:limit] + ([f"... and {len(out) - limit} more"] if len(out) > limit else [])
+
+
+def cmd_export(args) -> int:
+    from .route import Route
+    from .scene import _check_geodetic_origin
+    from .geo import check_crs
+    formats = _formats(args.format)
+    if not formats:
+        raise ParameterError("give --format with one or more of: qgc, wpl, litchi, kml, geojson, csv")
+    route = Route.load(args.route)
+    if args.crs or args.geo_origin:
+        if args.crs and args.geo_origin:
+            raise ParameterError("give either --crs or --geo-origin, not both")
+        if route.frame.get("crs") and args.crs and args.crs != route.frame["crs"]:
+            raise ParameterError(f"--crs {args.crs} contradicts the route's {route.frame['crs']}")
+        if args.crs:
+            route.frame["crs"] = check_crs(args.crs)
+        else:
+            route.frame["geodetic_origin"] = _check_geodetic_origin(args.geo_origin)
+    stem = args.output or (args.route[:-5] if args.route.lower().endswith(".json") else args.route)
+    written = _export(route, stem, formats, firmware=args.firmware, speed=args.speed)
+    print("written: " + ", ".join(str(p) for p in written))
+    return 0
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -233,6 +310,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-o", "--output", required=True, metavar="ROUTE.json")
     p.add_argument("--report", default=None, metavar="REPORT.html", help="also write the HTML flight report")
     p.add_argument("--plot", default=None, metavar="PREFIX", help="also write PNG figures PREFIX_*.png")
+    p.add_argument("--export", default=None, metavar="FORMATS",
+                   help="also write flight files beside the route: qgc,wpl,litchi,kml,geojson,csv")
+    p.add_argument("--firmware", choices=["px4", "ardupilot"], default="px4", help="for the QGC .plan")
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summary")
     p.add_argument("-v", "--verbose", action="store_true", help="log each stage's time")
@@ -253,6 +333,16 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("-q", "--quiet", action="store_true")
         p.add_argument("-v", "--verbose", action="store_true")
         p.set_defaults(func=cmd_report)
+
+    p = sub.add_parser("export", help="write a route for autopilots: QGC .plan, WPL, Litchi, KML, GeoJSON, CSV")
+    p.add_argument("route", metavar="ROUTE.json")
+    p.add_argument("--format", required=True, metavar="FORMATS", help="comma separated: qgc,wpl,litchi,kml,geojson,csv")
+    p.add_argument("-o", "--output", default=None, metavar="PREFIX", help="default: the route path without .json")
+    p.add_argument("--crs", default=None, metavar="EPSG:XXXX", help="the CRS of a route that has none")
+    p.add_argument("--geo-origin", nargs=3, type=float, default=None, metavar=("LAT", "LON", "H"))
+    p.add_argument("--firmware", choices=["px4", "ardupilot"], default="px4")
+    p.add_argument("--speed", type=float, default=5.0, metavar="M_PER_S")
+    p.set_defaults(func=cmd_export)
     return parser
 
 

@@ -216,7 +216,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     }
     if selection.lp_bound is not None:
         route.metrics["lp_lower_bound_shots"] = selection.lp_bound
-    route.extra = {"notes": notes + list(scene.notes)}
+    route.extra = {"notes": notes + list(scene.notes), "target_outline": _outline(scene)}
     return route
 
 
@@ -304,8 +304,7 @@ def _route(waypoints, order, shots, specials, camera, scene, limits, gsd, securi
               "min_triangulation_deg": min_tri, "max_incidence_deg": max_inc,
               "min_altitude_m": min_alt, "ground_z_m": scene.ground_z,
               "gimbal_pitch_range_deg": list(limits.pitch_range_deg), "sample_spacing_m": spacing}
-    frame = {"crs": scene.crs, "origin": scene.origin.tolist()}
-    return Route(pos, is_shot, heading, pitch, legs, camera, params, frame=frame, uncovered=uncovered)
+    return Route(pos, is_shot, heading, pitch, legs, camera, params, frame=scene.frame, uncovered=uncovered)
 
 
 def _final_check(route: Route, scene, limits: ViewLimits) -> None:
@@ -317,6 +316,15 @@ def _final_check(route: Route, scene, limits: ViewLimits) -> None:
     if not ok.all() or low.any():
         raise RuntimeError(f"internal error: planned route breaks the security distance on "
                            f"{int((~ok).sum())} segments / altitude at {int(low.sum())} waypoints")
+
+
+def _outline(scene) -> list:
+    """The target's footprint (convex hull, local x y) at ground height, for maps."""
+    from shapely.geometry import MultiPoint
+    pts = np.vstack([p.mesh.vertices[:, :2] for p in scene.targets])
+    hull = MultiPoint(pts).convex_hull
+    coords = np.asarray(hull.exterior.coords) if hull.geom_type == "Polygon" else pts[:1]
+    return [[round(float(x), 4), round(float(y), 4), float(scene.ground_z)] for x, y in coords]
 
 
 def _orbit_length(scene, distance: float) -> float:

@@ -11,6 +11,7 @@ import numpy as np
 import trimesh
 
 from .errors import InputFileError, ParameterError
+from .geo import check_crs
 from .io import read_file
 from .prepare import prepare_mesh
 
@@ -39,6 +40,8 @@ class Scene:
     crs: str | None = None
     origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
     notes: list[str] = field(default_factory=list)
+    vertical_crs: str | None = None
+    geodetic_origin: list | None = None  # [lat, lon, h]: local x, y, z are east, north, up there
     _clearance: dict = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self):
@@ -97,29 +100,48 @@ class Scene:
         part = self.parts[index]
         return f"{part.role} '{part.name}'"
 
+    @property
+    def frame(self) -> dict:
+        """Where the local frame sits on Earth, as the route file records it."""
+        frame = {"crs": self.crs, "origin": self.origin.tolist()}
+        if self.vertical_crs:
+            frame["vertical_crs"] = self.vertical_crs
+        if self.geodetic_origin:
+            frame["geodetic_origin"] = [float(v) for v in self.geodetic_origin]
+        return frame
+
     def to_source(self, points) -> np.ndarray:
         """Local coordinates back to the source frame."""
         return np.asarray(points, dtype=float) + self.origin
 
 
-def _named(path, source_meshes, role) -> list[MeshPart]:
-    stem = Path(path).stem
-    many = len(source_meshes) > 1
-    return [MeshPart(f"{stem}:{name}" if many else stem, role, mesh, str(path))
-            for name, mesh in source_meshes]
+def _part_name(path, raw: str, many: bool) -> str:
+    stem = Path(path).name.split(".")[0] or Path(path).stem
+    return f"{stem}:{raw}" if many else stem
 
 
 def load_scene(targets: str | Path | Sequence[str | Path],
                obstacles: Iterable[str | Path] = (),
                *, units: str = "m", ground: float | None = None,
                target_names: Sequence[str] | None = None,
-               up_axis: str | None = None) -> Scene:
+               up_axis: str | None = None, building: str | None = None,
+               lod: int | None = None, context_radius: float | None = None,
+               crs: str | None = None, geodetic_origin: Sequence[float] | None = None) -> Scene:
     """Read target and obstacle files into a Scene in metres.
 
     ``target_names`` picks, inside multi-object target files (GLB, OBJ), the objects that are
-    targets; the file's other objects become obstacles. ``ground`` is a height in metres in the
-    source frame. Far-away coordinates are moved to a local origin (kept in ``Scene.origin``).
+    targets; the file's other objects become obstacles. For CityGML / CityJSON, ``building``
+    names the target building (its id), ``lod`` the level of detail, and city objects within
+    ``context_radius`` metres become obstacles. ``ground`` is a height in metres in the source
+    frame. Far-away coordinates are moved to a local origin (kept in ``Scene.origin``).
+    ``crs`` names the projected CRS of mesh coordinates that carry none; ``geodetic_origin``
+    [lat, lon, h] places a local (east, north, up) mesh frame on Earth instead.
     """
+    if crs is not None and geodetic_origin is not None:
+        raise ParameterError("give either a CRS or a geodetic origin, not both")
+    user_crs = None if crs is None else check_crs(crs)
+    if geodetic_origin is not None:
+        geodetic_origin = _check_geodetic_origin(geodetic_origin)
     if isinstance(targets, (str, Path)):
         targets = [targets]
     targets = list(targets)
@@ -129,40 +151,63 @@ def load_scene(targets: str | Path | Sequence[str | Path],
         factor = UNITS[units]
     except KeyError:
         raise ParameterError(f"unknown units {units!r}; use one of {', '.join(UNITS)}") from None
+    options = {"up_axis": up_axis, "building": building, "lod": lod, "context_radius": context_radius}
     parts: list[MeshPart] = []
     notes: list[str] = []
-    crs = None
+    crs = vertical = None
+    file_of_crs = None
     wanted = set(target_names or ())
-    found_names: set[str] = set()
+    found: set[str] = set()
+    available: set[str] = set()
     for path in targets:
-        src = read_file(path, up_axis=up_axis)
+        src = read_file(path, **options)
         notes += src.notes
-        crs = crs or src.crs
-        named = src.target_names or (list(wanted) if wanted else None)
-        for part in _named(path, src.meshes, "target"):
-            object_name = part.name.split(":", 1)[-1]
-            if named is not None and object_name not in named and part.name not in named:
-                part.role = "obstacle"
-            else:
-                found_names.add(object_name)
-            parts.append(part)
-    missing = wanted - found_names
+        if src.crs and crs and src.crs != crs:
+            raise ParameterError(f"{path} is in {src.crs} but {file_of_crs} is in {crs}; convert one of them")
+        if src.crs and not crs:
+            crs, file_of_crs = src.crs, path
+        vertical = vertical or src.vertical_crs
+        chosen = set(src.target_names) if src.target_names else (wanted or None)
+        many = len(src.meshes) > 1
+        for raw, mesh in src.meshes:
+            available.add(raw)
+            role = "target" if chosen is None or raw in chosen else "obstacle"
+            if role == "target":
+                found.add(raw)
+            parts.append(MeshPart(_part_name(path, raw, many), role, mesh, str(path)))
+    missing = wanted - found
     if missing:
-        available = sorted({p.name.split(':', 1)[-1] for p in parts})
         raise ParameterError(f"no object named {', '.join(sorted(missing))} in the target files; "
-                             f"objects: {', '.join(available[:12])}")
+                             f"objects: {', '.join(sorted(available)[:12])}")
     for path in obstacles:
-        src = read_file(path, up_axis=up_axis)
+        src = read_file(path, **options)
         notes += src.notes
-        parts += _named(path, src.meshes, "obstacle")
+        many = len(src.meshes) > 1
+        parts += [MeshPart(_part_name(path, raw, many), "obstacle", mesh, str(path)) for raw, mesh in src.meshes]
     for part in parts:
         part.mesh.apply_scale(factor)
+    if user_crs and crs and user_crs != crs:
+        raise ParameterError(f"--crs {user_crs} contradicts {file_of_crs}, which says {crs}")
+    if geodetic_origin is not None and crs:
+        raise ParameterError(f"{file_of_crs} is georeferenced ({crs}); a geodetic origin would contradict it")
     ground_m = None if ground is None else float(ground)
-    return build_scene(parts, ground=ground_m, crs=crs, notes=notes)
+    scene = build_scene(parts, ground=ground_m, crs=crs or user_crs, vertical_crs=vertical, notes=notes)
+    scene.geodetic_origin = geodetic_origin
+    return scene
+
+
+def _check_geodetic_origin(values) -> list[float]:
+    try:
+        lat, lon, h = (float(v) for v in values)
+    except (TypeError, ValueError):
+        raise ParameterError(f"geodetic origin must be LAT LON H, got {values!r}") from None
+    if not (-90 <= lat <= 90 and -180 <= lon <= 180 and np.isfinite(h)):
+        raise ParameterError(f"geodetic origin {lat} {lon} {h} is not on Earth (latitude, longitude in degrees)")
+    return [lat, lon, h]
 
 
 def build_scene(parts: Sequence[MeshPart], *, ground: float | None = None, crs: str | None = None,
-                notes: Sequence[str] = ()) -> Scene:
+                vertical_crs: str | None = None, notes: Sequence[str] = ()) -> Scene:
     """Prepare meshes already in metres and move far-away coordinates to a local origin."""
     notes = list(notes)
     prepared = []
@@ -179,7 +224,7 @@ def build_scene(parts: Sequence[MeshPart], *, ground: float | None = None, crs: 
             part.mesh.apply_translation(-origin)
         notes.append(f"moved to a local origin at {origin.tolist()} (source coordinates are far from 0)")
     ground_local = None if ground is None else float(ground) - origin[2]
-    return Scene(prepared, ground_z=ground_local, crs=crs, origin=origin, notes=notes)
+    return Scene(prepared, ground_z=ground_local, crs=crs, origin=origin, notes=notes, vertical_crs=vertical_crs)
 
 
 def scene_from_meshes(targets: Sequence[trimesh.Trimesh], obstacles: Sequence[trimesh.Trimesh] = (),

@@ -7,6 +7,7 @@ one); writers take a :class:`~coverplan.route.Route` and a path.
 from __future__ import annotations
 
 import os
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
@@ -25,6 +26,7 @@ class MeshSource:
     # names of meshes the file itself marks as the target (e.g. the chosen building)
     target_names: list[str] | None = None
     notes: list[str] = field(default_factory=list)
+    vertical_crs: str | None = None  # heights' datum, when the file names one
 
 
 Reader = Callable[..., MeshSource]
@@ -77,6 +79,15 @@ def read_file(path, **options) -> MeshSource:
     return reader(path, **options)
 
 
+def open_maybe_gzip(path, mode: str = "rb"):
+    """Open a file, decompressing it when its name ends in .gz."""
+    import gzip
+    path = Path(path)
+    if path.name.lower().endswith(".gz"):
+        return gzip.open(path, mode) if "b" in mode else gzip.open(path, mode, encoding="utf-8")
+    return open(path, mode) if "b" in mode else open(path, mode, encoding="utf-8")
+
+
 def supported_extensions() -> list[str]:
     _load_plugins()
     return sorted(_READERS)
@@ -97,6 +108,27 @@ def writer_names() -> list[str]:
     return sorted(_WRITERS)
 
 
+def write_atomic(path, text: str) -> Path:
+    """Write a text file so readers never see half of it: temporary file, fsync, rename."""
+    path = Path(path)
+    folder = path.parent if str(path.parent) else Path(".")
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as handle:
+            handle.write(text)
+            handle.flush()
+            os.fsync(handle.fileno())
+        umask = os.umask(0)
+        os.umask(umask)
+        os.chmod(tmp, 0o666 & ~umask)  # mkstemp makes it private; give it the usual permissions
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    return path
+
+
 def _load_plugins() -> None:
     # Importing the modules registers their readers and writers.
-    from . import meshes  # noqa: F401
+    from . import citygml, cityjson, csv_waypoints, geojson, kml, litchi, meshes, qgc  # noqa: F401

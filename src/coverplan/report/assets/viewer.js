@@ -144,7 +144,7 @@ const frGeom = new THREE.BufferGeometry();
 frGeom.setAttribute('position', new THREE.Float32BufferAttribute(fr, 3));
 addLayer('shots', new THREE.LineSegments(frGeom, new THREE.LineBasicMaterial({ color: 0x1a202c, transparent: true, opacity: 0.6 })));
 
-const start = new THREE.Mesh(new THREE.SphereGeometry(data.sample_size * 3, 16, 12),
+const start = new THREE.Mesh(new THREE.SphereGeometry(data.radius * 0.02, 16, 12),
   new THREE.MeshLambertMaterial({ color: 0x38a169 }));
 start.position.set(wp[0], wp[1], wp[2]);
 addLayer('start', start);

@@ -1,0 +1,89 @@
+"""Local route coordinates <-> WGS84, for exporters.
+
+A route's ``frame`` says where its local metres sit on Earth, one of two ways:
+- ``crs`` (e.g. "EPSG:25832") and ``origin``: local + origin are coordinates in that CRS;
+  heights are in ``vertical_crs`` when given (orthometric, above sea level), else unknown;
+- ``geodetic_origin`` [lat, lon, h]: local x, y, z are east, north, up of a tangent plane
+  (ENU) at that point, h ellipsoidal or above sea level as the user gave it.
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+from pyproj import CRS, Transformer
+from pyproj.exceptions import CRSError
+
+from .errors import ParameterError
+
+WGS84 = "EPSG:4326"
+
+
+def has_georeference(frame: dict) -> bool:
+    return bool(frame.get("crs") or frame.get("geodetic_origin"))
+
+
+@lru_cache(maxsize=16)
+def _transformer(src: str, dst: str) -> Transformer:
+    return Transformer.from_crs(src, dst, always_xy=True)
+
+
+def check_crs(text: str) -> str:
+    """A CRS string pyproj understands, or a ParameterError naming it."""
+    try:
+        crs = CRS.from_user_input(text)
+    except CRSError:
+        raise ParameterError(f"unknown coordinate reference system {text!r} (use e.g. EPSG:25832)") from None
+    if crs.is_geographic:
+        raise ParameterError(f"{text} is geographic (degrees); mesh coordinates need a projected CRS in metres")
+    return text
+
+
+def to_lonlat(frame: dict, local) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Longitude, latitude (degrees) and height (m, in the frame's height system) of local points."""
+    local = np.asarray(local, dtype=float).reshape(-1, 3)
+    origin = np.asarray(frame.get("origin") or [0.0, 0.0, 0.0], dtype=float)
+    if frame.get("crs"):
+        src = local + origin
+        lon, lat = _transformer(frame["crs"], WGS84).transform(src[:, 0], src[:, 1])
+        return np.asarray(lon), np.asarray(lat), src[:, 2]
+    if frame.get("geodetic_origin"):
+        lat0, lon0, h0 = (float(v) for v in frame["geodetic_origin"])
+        ecef = _enu_to_ecef(local, lat0, lon0, h0)
+        lon, lat, h = _transformer("EPSG:4978", "EPSG:4979").transform(ecef[:, 0], ecef[:, 1], ecef[:, 2])
+        return np.asarray(lon), np.asarray(lat), np.asarray(h)
+    raise ParameterError("the route has no georeference (no CRS and no geodetic origin); plan from a "
+                         "CityGML/CityJSON file, or pass --crs EPSG:XXXX or --geo-origin LAT LON H")
+
+
+def from_lonlat(frame: dict, lon, lat, h) -> np.ndarray:
+    """Inverse of :func:`to_lonlat`: local coordinates of WGS84 points."""
+    lon, lat, h = (np.asarray(a, dtype=float) for a in (lon, lat, h))
+    origin = np.asarray(frame.get("origin") or [0.0, 0.0, 0.0], dtype=float)
+    if frame.get("crs"):
+        x, y = _transformer(WGS84, frame["crs"]).transform(lon, lat)
+        return np.column_stack([x, y, h]) - origin
+    lat0, lon0, h0 = (float(v) for v in frame["geodetic_origin"])
+    x, y, z = _transformer("EPSG:4979", "EPSG:4978").transform(lon, lat, h)
+    return _ecef_to_enu(np.column_stack([x, y, z]), lat0, lon0, h0)
+
+
+def _rotation(lat0: float, lon0: float) -> np.ndarray:
+    """Rows: east, north, up unit vectors in ECEF at (lat0, lon0)."""
+    la, lo = np.radians(lat0), np.radians(lon0)
+    return np.array([[-np.sin(lo), np.cos(lo), 0.0],
+                     [-np.sin(la) * np.cos(lo), -np.sin(la) * np.sin(lo), np.cos(la)],
+                     [np.cos(la) * np.cos(lo), np.cos(la) * np.sin(lo), np.sin(la)]])
+
+
+def _origin_ecef(lat0, lon0, h0) -> np.ndarray:
+    return np.array(_transformer("EPSG:4979", "EPSG:4978").transform(lon0, lat0, h0))
+
+
+def _enu_to_ecef(enu, lat0, lon0, h0) -> np.ndarray:
+    return enu @ _rotation(lat0, lon0) + _origin_ecef(lat0, lon0, h0)
+
+
+def _ecef_to_enu(ecef, lat0, lon0, h0) -> np.ndarray:
+    return (ecef - _origin_ecef(lat0, lon0, h0)) @ _rotation(lat0, lon0).T

@@ -1,0 +1,110 @@
+"""CityJSON 1.0-2.0 files and CityJSONSeq (.jsonl): city objects as meshes, LoD by LoD.
+
+Vertices are integers times ``transform.scale`` plus ``transform.translate``. A top-level
+object takes the geometry of its children (3D BAG keeps it on the BuildingParts).
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+
+from ..errors import InputFileError
+from . import MeshSource, open_maybe_gzip, register_reader
+from .city import CityObject, parse_crs, to_source, triangulate_rings
+
+
+def _load(path):
+    try:
+        with open_maybe_gzip(path, "rt") as handle:
+            text = handle.read()
+    except (OSError, EOFError) as exc:
+        raise InputFileError(path, f"cannot be read ({exc})") from None
+    try:
+        if path.name.lower().removesuffix(".gz").endswith(".jsonl"):
+            lines = [json.loads(line) for line in text.splitlines() if line.strip()]
+            if not lines or lines[0].get("type") != "CityJSON":
+                raise InputFileError(path, "is not CityJSONSeq: the first line must be a CityJSON object")
+            header = lines[0]
+            features = lines[1:]
+        else:
+            header = json.loads(text)
+            features = []
+    except json.JSONDecodeError as exc:
+        raise InputFileError(path, f"is not valid JSON ({exc.msg} at line {exc.lineno})") from None
+    if not isinstance(header, dict) or header.get("type") != "CityJSON":
+        raise InputFileError(path, "is not CityJSON (its 'type' is not \"CityJSON\")")
+    return header, features
+
+
+@register_reader("city.json", "json", "city.jsonl", "jsonl", "json.gz", "jsonl.gz")
+def read_cityjson(path, building: str | None = None, lod: int | None = None,
+                  context_radius: float | None = None, **_ignored) -> MeshSource:
+    try:
+        header, features = _load(path)
+    except UnicodeDecodeError:
+        raise InputFileError(path, "is not UTF-8 text") from None
+    transform = header.get("transform") or {}
+    scale = np.asarray(transform.get("scale", [1, 1, 1]), dtype=float)
+    translate = np.asarray(transform.get("translate", [0, 0, 0]), dtype=float)
+    metadata = header.get("metadata") or {}
+    reference = metadata.get("referenceSystem") or metadata.get("crs")
+    crs = parse_crs(reference if isinstance(reference, str) else json.dumps(reference))
+    chunks = [(header.get("CityObjects") or {}, header.get("vertices") or [])]
+    chunks += [(f.get("CityObjects") or {}, f.get("vertices") or []) for f in features]
+    objects, skipped = [], 0
+    for city_objects, vertices in chunks:
+        try:
+            verts = np.asarray(vertices, dtype=float).reshape(-1, 3) * scale + translate
+        except (ValueError, TypeError):
+            raise InputFileError(path, "has vertices that are not triples of numbers") from None
+        if not isinstance(city_objects, dict):
+            raise InputFileError(path, "'CityObjects' must be an object")
+        for oid, obj in city_objects.items():
+            if not isinstance(obj, dict) or obj.get("parents"):
+                continue
+            city = CityObject(oid, str(obj.get("type", "CityObject")), (obj.get("attributes") or {}).get("name"))
+            for part in [obj] + [city_objects.get(c, {}) for c in obj.get("children", [])]:
+                for geom in part.get("geometry", []) or []:
+                    s = _add_geometry(city, geom, verts)
+                    skipped += s
+            objects.append(city)
+    if not objects:
+        raise InputFileError(path, "holds no city objects")
+    return to_source(objects, path, building, context_radius, crs, skipped, lod)
+
+
+def _surfaces(kind: str, boundaries):
+    """Each surface (a list of rings of vertex indices) in a geometry's boundaries."""
+    if kind in ("MultiSurface", "CompositeSurface"):
+        yield from boundaries
+    elif kind == "Solid":
+        for shell in boundaries:
+            yield from shell
+    elif kind in ("MultiSolid", "CompositeSolid"):
+        for solid in boundaries:
+            for shell in solid:
+                yield from shell
+
+
+def _add_geometry(city: CityObject, geom: dict, verts: np.ndarray) -> int:
+    """Triangulate one geometry into ``city``; returns how many surfaces had to be skipped."""
+    kind = geom.get("type")
+    try:
+        level = int(float(geom.get("lod", 0)))
+    except (TypeError, ValueError):
+        return 1
+    skipped = 0
+    for surface in _surfaces(kind, geom.get("boundaries") or []):
+        try:
+            rings = [verts[np.asarray(ring, dtype=np.int64)] for ring in surface]
+        except (IndexError, ValueError, TypeError):
+            skipped += 1
+            continue
+        tri = triangulate_rings(rings)
+        if tri is None:
+            skipped += 1
+        else:
+            city.add(level, tri)
+    return skipped

@@ -1,0 +1,31 @@
+"""GeoJSON (RFC 7946): the flight as a LineString and each waypoint as a Point with properties.
+
+Coordinates are longitude, latitude and height; heights are above sea level when the route's
+frame knows its datum, else above the take-off point (the member ``altitude_reference`` says
+which)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from . import register_writer, write_atomic
+from .flight import geo_flight
+
+
+@register_writer("geojson", ".geojson")
+def write_geojson(route, path, **_ignored) -> list[Path]:
+    f = geo_flight(route)
+    alt = f.alt_abs if f.alt_abs is not None else f.alt_rel
+    coords = [[round(float(f.lon[k]), 9), round(float(f.lat[k]), 9), round(float(alt[k]), 3)] for k in range(len(f))]
+    features = [{"type": "Feature", "geometry": {"type": "LineString", "coordinates": coords},
+                 "properties": {"name": "flight", "shots": int(f.shot.sum())}}]
+    for k in range(len(f)):
+        features.append({"type": "Feature", "geometry": {"type": "Point", "coordinates": coords[k]},
+                         "properties": {"index": k, "shot": bool(f.shot[k]), "leg": f.leg[k],
+                                        "heading_deg": round(float(f.heading_true[k]), 3),
+                                        "gimbal_pitch_deg": round(float(f.pitch[k]), 3),
+                                        "altitude_above_takeoff_m": round(float(f.alt_rel[k]), 3)}})
+    doc = {"type": "FeatureCollection", "features": features,
+           "altitude_reference": "sea level" if f.alt_abs is not None else "take-off point"}
+    return [write_atomic(path, json.dumps(doc))]

@@ -1,0 +1,67 @@
+"""Litchi mission CSV (its documented columns). Litchi holds at most 99 waypoints per mission,
+so longer flights are split into consecutive missions NAME.litchi.csv, NAME.litchi.2.csv, ...
+Shots at one spot with different headings share a waypoint: rotate, tilt, photo actions."""
+
+from __future__ import annotations
+
+import csv
+import io
+from pathlib import Path
+
+import numpy as np
+
+from . import register_writer, write_atomic
+from .flight import geo_flight
+
+MAX_WAYPOINTS = 99
+MAX_ACTIONS = 15
+SAME_SPOT_M = 0.5
+TAKE_PHOTO, ROTATE_AIRCRAFT, TILT_CAMERA, NO_ACTION = 1, 4, 5, -1
+HEADER = (["latitude", "longitude", "altitude(m)", "heading(deg)", "curvesize(m)", "rotationdir", "gimbalmode",
+           "gimbalpitchangle"]
+          + [name for k in range(1, MAX_ACTIONS + 1) for name in (f"actiontype{k}", f"actionparam{k}")]
+          + ["altitudemode", "speed(m/s)", "poi_latitude", "poi_longitude", "poi_altitude(m)", "poi_altitudemode",
+             "photo_timeinterval", "photo_distinterval"])
+
+
+def litchi_waypoints(route) -> list[dict]:
+    """Waypoints with their actions; consecutive ones closer than 0.5 m are merged."""
+    f = geo_flight(route)
+    local = route.positions
+    out: list[dict] = []
+    for k in range(len(f)):
+        actions = []
+        if f.shot[k]:
+            actions = [(ROTATE_AIRCRAFT, round(float(f.heading_true[k]), 1)),
+                       (TILT_CAMERA, round(float(f.pitch[k]), 1)), (TAKE_PHOTO, 0)]
+        if out and np.linalg.norm(local[k] - out[-1]["local"]) < SAME_SPOT_M and \
+                len(out[-1]["actions"]) + len(actions) <= MAX_ACTIONS:
+            out[-1]["actions"] += actions
+            continue
+        out.append({"lat": float(f.lat[k]), "lon": float(f.lon[k]), "alt": float(f.alt_rel[k]),
+                    "heading": float(f.heading_true[k]), "pitch": float(np.clip(f.pitch[k], -90, 30)),
+                    "actions": actions, "local": local[k]})
+    return out
+
+
+@register_writer("litchi", ".litchi.csv")
+def write_litchi(route, path, speed: float = 5.0, **_ignored) -> list[Path]:
+    waypoints = litchi_waypoints(route)
+    path = Path(path)
+    written = []
+    # Each later mission starts where the previous one ended.
+    chunks, start = [], 0
+    while start < len(waypoints) - 1 or not chunks:
+        chunks.append(waypoints[start:start + MAX_WAYPOINTS])
+        start += MAX_WAYPOINTS - 1
+    for n, chunk in enumerate(chunks, start=1):
+        buffer = io.StringIO()
+        writer = csv.writer(buffer, lineterminator="\n")
+        writer.writerow(HEADER)
+        for w in chunk:
+            acts = (w["actions"] + [(NO_ACTION, 0)] * MAX_ACTIONS)[:MAX_ACTIONS]
+            writer.writerow([f"{w['lat']:.8f}", f"{w['lon']:.8f}", f"{w['alt']:.2f}", f"{w['heading']:.1f}", 0, 0, 2,
+                             f"{w['pitch']:.1f}", *[v for a in acts for v in a], 0, f"{speed:g}", 0, 0, 0, 0, -1, -1])
+        target = path if n == 1 else path.with_name(path.name.replace(".litchi.csv", f".litchi.{n}.csv"))
+        written.append(write_atomic(target, buffer.getvalue()))
+    return written
