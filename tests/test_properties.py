@@ -20,7 +20,7 @@ from shapely.geometry import Polygon
 from coverplan import PRESETS, ParameterError, PlanningError, evaluate, plan
 from coverplan.scene import scene_from_meshes
 
-EXAMPLES = 25
+EXAMPLES = 200
 
 
 @st.composite
@@ -81,7 +81,7 @@ def test_random_scene_route_is_safe_and_claims_recheck(target, obs, opts):
 
 
 @pytest.mark.slow
-@settings(max_examples=300, deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=1000, deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow])
 @given(target=targets(), obs=obstacles(), opts=settings_())
 def test_random_scene_route_is_safe_many(target, obs, opts):
     test_random_scene_route_is_safe_and_claims_recheck.hypothesis.inner_test(target, obs, opts)

@@ -1,6 +1,7 @@
 """Clearance queries against trimesh's proximity (no FCL, no KD-tree bound)."""
 
 import numpy as np
+import pytest
 import trimesh
 from conftest import box
 
@@ -58,3 +59,38 @@ def test_segment_queries_see_thin_obstacles_between_endpoints():
     assert ok[clear_margin].all() and not ok[unclear].any()
     # the 0.3 m post between two far waypoints
     assert not model.segments_clear(np.array([[10, 0.15 + 1, 6.0]]), np.array([[20, 0.15 + 1, 6.0]]), 3.0)[0]
+
+
+def test_polyline_clearance_is_exact_where_it_matters():
+    meshes = scene_meshes()
+    model = ClearanceModel(meshes, rays=RayCaster(meshes), cover_edge=1.0)
+    rng = np.random.default_rng(4)
+    pts = rng.uniform([-8, -8, 1], [24, 26, 15], size=(60, 3))
+    pts = pts[true_distance(meshes, pts) > 0]
+    dist, _which, exact = model.polyline_clearance(pts, 3.0)
+    truth, _ = model.segment_distance(pts[:-1], pts[1:])
+    assert dist.min() == pytest.approx(truth.min(), abs=1e-9)
+    np.testing.assert_array_equal(dist < 3.0, truth < 3.0)
+    assert (dist <= truth + 1e-9).all()
+    np.testing.assert_allclose(dist[exact], truth[exact])
+
+
+@pytest.mark.parametrize("exact", [True, False])
+def test_halving_segment_check_for_big_meshes(monkeypatch, exact):
+    """The path big meshes take (KD bounds on halved pieces) agrees with the truth."""
+    from coverplan import safety
+    meshes = scene_meshes()
+    model = ClearanceModel(meshes, rays=RayCaster(meshes), cover_edge=0.5)
+    monkeypatch.setattr(safety, "HALVING_FROM_TRIANGLES", 0)
+    rng = np.random.default_rng(7)
+    a = rng.uniform([-6, -6, 1], [22, 24, 15], size=(200, 3))
+    b = a + rng.normal(size=(200, 3)) * 6
+    outside = (true_distance(meshes, a) > 0) & (true_distance(meshes, b) > 0)
+    a, b = a[outside], b[outside]
+    truth, _ = model.segment_distance(a, b)
+    ok = model.segments_clear(a, b, 2.0, exact=exact)
+    assert not ok[truth < 2.0].any()  # never clear when it is not
+    if exact:
+        np.testing.assert_array_equal(ok, truth >= 2.0)
+    else:
+        assert ok[truth >= 2.0 + model.cover_radius * 2].all()

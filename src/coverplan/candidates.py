@@ -70,23 +70,24 @@ def standoff(camera, limits: ViewLimits, margin: float) -> float:
     return float(min(max(ideal, nearest * 1.05), limits.d_opt * 0.95))
 
 
-def slice_heights(scene, limits: ViewLimits, camera, distance: float) -> np.ndarray:
-    """Heights of the façade slices: spaced by half the vertical footprint at ``distance``."""
+def slice_heights(scene, limits: ViewLimits, camera, distance: float, spacing: float = 0.0) -> np.ndarray:
+    """Heights of the façade slices: spaced by half the vertical footprint at ``distance``
+    (never closer than the sample spacing: denser than the samples sees nothing new)."""
     top = scene.bounds("target")[1, 2]
-    step = camera.footprint(distance)[1] * 0.5
+    step = max(camera.footprint(distance)[1] * 0.5, spacing)
     start = max(limits.min_z, scene.ground_z + step * 0.5)
     if start > top:
         return np.array([start])
     return np.arange(start, top + step * 0.5, step)
 
 
-def facade_rings(scene, camera, limits: ViewLimits, distance: float) -> Candidates:
+def facade_rings(scene, camera, limits: ViewLimits, distance: float, spacing: float = 0.0) -> Candidates:
     """Cameras on the target's horizontal sections offset by ``distance``, facing the walls."""
     width = camera.footprint(distance)[0]
-    step = width / 4.0
+    step = max(width / 4.0, spacing)
     tilt = min(camera.hfov_deg / 3.0, 30.0)
     positions, dirs = [], []
-    heights = slice_heights(scene, limits, camera, distance)
+    heights = slice_heights(scene, limits, camera, distance, spacing)
     # A slice above the roof walks the section just under the roof.
     for z in heights:
         section = _section_union(scene, min(z, scene.bounds("target")[1, 2] - 1e-3))
@@ -113,7 +114,7 @@ def facade_rings(scene, camera, limits: ViewLimits, distance: float) -> Candidat
 def along_normals(samples, limits: ViewLimits, camera, distance: float, tilt_deg: float = 30.0,
                   n_tilts: int = 4) -> Candidates:
     """Cameras at ``distance`` along each thinned sample's normal and tilted about it."""
-    cell = camera.footprint(distance)[1] * 0.35
+    cell = max(camera.footprint(distance)[1] * 0.35, samples.spacing)
     picked = _thin(samples.points, samples.normals, cell)
     pts, nrm = samples.points[picked], samples.normals[picked]
     t1, t2 = tangent_frames(nrm)

@@ -26,8 +26,8 @@ def _add_scene_args(p, targets_positional: bool):
         p.add_argument("--target", "--targets", dest="targets", nargs="+", required=True, metavar="TARGET",
                        help="target mesh file(s)")
     p.add_argument("--obstacles", nargs="+", default=[], metavar="MESH", help="obstacle mesh file(s)")
-    p.add_argument("--units", default="m", choices=["m", "cm", "mm", "ft", "in"],
-                   help="units of the mesh files (default m)")
+    p.add_argument("--units", default=None, choices=["m", "cm", "mm", "ft", "in"],
+                   help="units of the mesh files (default: the CRS's unit, else m)")
     p.add_argument("--ground", type=float, default=None, metavar="Z",
                    help="ground height in metres (default: lowest point of the target)")
     p.add_argument("--target-names", nargs="+", default=None, metavar="NAME",
@@ -145,6 +145,14 @@ def cmd_plan(args) -> int:
     progress = Progress(bars=not args.quiet, verbose=args.verbose)
     with progress.stage("load scene"):
         scene = _scene(args)
+        if args.merge_obstacles_within is not None:
+            from .merge import merge_into_target
+            if args.merge_obstacles_within < 0:
+                raise ParameterError(f"--merge-obstacles-within must be >= 0, got {args.merge_obstacles_within}")
+            scene = merge_into_target(scene, args.merge_obstacles_within)
+    for note in scene.notes:  # say it now, before the long work, not only in the summary
+        if note.startswith("WARNING"):
+            print(f"coverplan: {note}", file=sys.stderr)
     if set(formats) & GEOGRAPHIC and not (scene.crs or scene.geodetic_origin):
         raise ParameterError(f"{', '.join(sorted(set(formats) & GEOGRAPHIC))} export needs a georeference: "
                              "the input has no CRS; pass --crs EPSG:XXXX or --geo-origin LAT LON H")
@@ -152,7 +160,8 @@ def cmd_plan(args) -> int:
                  min_views=args.min_views, min_triangulation_deg=args.min_triangulation_deg,
                  max_incidence_deg=args.max_incidence_deg, min_altitude=args.min_altitude,
                  spacing=args.spacing, gimbal_pitch_range_deg=(args.gimbal_min_deg, args.gimbal_max_deg),
-                 lp_time_limit=args.lp_time_limit, progress=progress)
+                 lp_time_limit=args.lp_time_limit, progress=progress,
+                 max_memory=None if args.max_memory_gb is None else check_positive("--max-memory-gb", args.max_memory_gb) * 1e9)
     ev = None
     if args.evaluate or args.report or args.plot:
         from .evaluate import evaluate
@@ -305,6 +314,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--shot-seconds", type=float, default=1.0, help="hover time per shot, for the estimate")
     p.add_argument("--lp-time-limit", type=float, default=20.0, metavar="S",
                    help="time for the LP that guides view selection and bounds it (0: plain greedy)")
+    p.add_argument("--max-memory-gb", type=float, default=None, metavar="GB",
+                   help="refuse plans estimated to need more (default: 80%% of this machine's RAM)")
+    p.add_argument("--merge-obstacles-within", type=float, default=None, metavar="M",
+                   help="unite obstacles closer than M to the target with it (thesis Appendix C)")
     p.add_argument("--no-evaluate", dest="evaluate", action="store_false",
                    help="skip the independent evaluation of the planned route")
     p.add_argument("-o", "--output", required=True, metavar="ROUTE.json")

@@ -86,7 +86,7 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
     clearance = scene.clearance_model(route.security)
     inside = scene.rays.inside(positions) >= 0
     if len(positions) > 1:
-        seg_d, seg_mesh = clearance.segment_distance(positions[:-1], positions[1:])
+        seg_d, seg_mesh, _exact = clearance.polyline_clearance(positions, route.security)
     else:
         seg_d, seg_mesh = clearance.point_distance(positions)
     seg_d = seg_d.copy()

@@ -1,8 +1,9 @@
 """Local route coordinates <-> WGS84, for exporters.
 
 A route's ``frame`` says where its local metres sit on Earth, one of two ways:
-- ``crs`` (e.g. "EPSG:25832") and ``origin``: local + origin are coordinates in that CRS;
-  heights are in ``vertical_crs`` when given (orthometric, above sea level), else unknown;
+- ``crs`` (e.g. "EPSG:25832") and ``origin``: local + origin are coordinates in that CRS, in
+  metres (divided by ``crs_unit_m`` for a CRS counting in feet); heights are in
+  ``vertical_crs`` when given (orthometric, above sea level), else unknown;
 - ``geodetic_origin`` [lat, lon, h]: local x, y, z are east, north, up of a tangent plane
   (ENU) at that point, h ellipsoidal or above sea level as the user gave it.
 """
@@ -45,8 +46,9 @@ def to_lonlat(frame: dict, local) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     local = np.asarray(local, dtype=float).reshape(-1, 3)
     origin = np.asarray(frame.get("origin") or [0.0, 0.0, 0.0], dtype=float)
     if frame.get("crs"):
-        src = local + origin
-        lon, lat = _transformer(frame["crs"], WGS84).transform(src[:, 0], src[:, 1])
+        src = local + origin  # metres; the CRS may count in feet
+        unit = float(frame.get("crs_unit_m", 1.0))
+        lon, lat = _transformer(frame["crs"], WGS84).transform(src[:, 0] / unit, src[:, 1] / unit)
         return np.asarray(lon), np.asarray(lat), src[:, 2]
     if frame.get("geodetic_origin"):
         lat0, lon0, h0 = (float(v) for v in frame["geodetic_origin"])
@@ -62,8 +64,9 @@ def from_lonlat(frame: dict, lon, lat, h) -> np.ndarray:
     lon, lat, h = (np.asarray(a, dtype=float) for a in (lon, lat, h))
     origin = np.asarray(frame.get("origin") or [0.0, 0.0, 0.0], dtype=float)
     if frame.get("crs"):
+        unit = float(frame.get("crs_unit_m", 1.0))
         x, y = _transformer(WGS84, frame["crs"]).transform(lon, lat)
-        return np.column_stack([x, y, h]) - origin
+        return np.column_stack([np.asarray(x) * unit, np.asarray(y) * unit, h]) - origin
     lat0, lon0, h0 = (float(v) for v in frame["geodetic_origin"])
     x, y, z = _transformer("EPSG:4979", "EPSG:4978").transform(lon, lat, h)
     return _ecef_to_enu(np.column_stack([x, y, z]), lat0, lon0, h0)

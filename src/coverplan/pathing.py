@@ -18,7 +18,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import dijkstra
 from scipy.spatial import cKDTree
 
-from .safety import surface_lattice
+from .safety import surface_cover
 
 _NEIGHBOURS = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)
                         if (i, j, k) > (0, 0, 0)])  # 13 of the 26: each edge once
@@ -64,7 +64,10 @@ def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float
     shape = np.floor((hi - lo) / spacing).astype(int) + 1
     grid = np.stack(np.meshgrid(*[np.arange(s) for s in shape], indexing="ij"), axis=-1).reshape(-1, 3)
     nodes = lo + grid * spacing
-    upper, _owner = clearance.kd_distance(nodes)
+    # Distances matter up to a few d_opt (for the cost); bounded searches are much faster.
+    far = radius + 2.0 * limits.d_opt + spacing * 2
+    upper, _owner = clearance.kd_distance(nodes, far)
+    upper = np.minimum(upper, far)
     lower = np.maximum(upper - clearance.cover_radius, 0.0)
     ok = lower >= radius
     unsure = np.flatnonzero(~ok & (upper >= radius))
@@ -88,7 +91,7 @@ def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float
         cols.append(b[live])
     rows, cols = np.concatenate(rows), np.concatenate(cols)
     if len(rows):
-        safe = clearance.segments_clear(nodes[rows], nodes[cols], radius, lower[rows], lower[cols])
+        safe = clearance.segments_clear(nodes[rows], nodes[cols], radius, lower[rows], lower[cols], exact=False)
         rows, cols = rows[safe], cols[safe]
     if progress is not None:
         progress(1)
@@ -111,14 +114,13 @@ def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float
         extra_c.append(pairs[:, 1] + n_lat)
     if extra_r:
         er, ec = np.concatenate(extra_r), np.concatenate(extra_c)
-        safe = clearance.segments_clear(points[er], points[ec], radius)
+        safe = clearance.segments_clear(points[er], points[ec], radius)  # exact: shots sit near the limit
         rows = np.concatenate([rows, er[safe]])
         cols = np.concatenate([cols, ec[safe]])
 
-    scene_d = np.concatenate([upper, clearance.kd_distance(specials)[0]])
-    target_tree = cKDTree(np.vstack([surface_lattice(p.mesh.triangles, clearance.cover_edge)
-                                     for p in scene.targets]))
-    target_d = target_tree.query(points, workers=-1)[0]
+    scene_d = np.concatenate([upper, np.minimum(clearance.kd_distance(specials, far)[0], far)])
+    target_tree = cKDTree(np.vstack([surface_cover(p.mesh, clearance.cover_edge)[0] for p in scene.targets]))
+    target_d = np.minimum(target_tree.query(points, workers=-1, distance_upper_bound=far)[0], far)
     cost, k = node_costs(points, scene_d, target_d, limits.d_opt)
     length = np.linalg.norm(points[rows] - points[cols], axis=1)
     weight = length * (1.0 + cost_weight * (cost[rows] + cost[cols]) / (2.0 * k))
@@ -137,10 +139,12 @@ def shot_distances(fg: FlightGraph, n_special: int, limit: float):
     without limit so every reachable shot connects. Returns (closure, its predecessors, the
     direct costs).
     """
+    # The graphs are symmetric: directed=True gives the same paths and spares scipy a
+    # conversion of the whole graph on every call.
     idx = fg.n_lattice + np.arange(n_special)
-    from_start = dijkstra(fg.graph, directed=False, indices=idx[:1])[:, idx]
+    from_start = dijkstra(fg.graph, directed=True, indices=idx[:1])[:, idx]
     if n_special > 1:
-        near = dijkstra(fg.graph, directed=False, indices=idx[1:], limit=limit)[:, idx]
+        near = dijkstra(fg.graph, directed=True, indices=idx[1:], limit=limit)[:, idx]
         direct = np.vstack([from_start, near])
     else:
         direct = from_start
@@ -148,7 +152,7 @@ def shot_distances(fg: FlightGraph, n_special: int, limit: float):
     np.fill_diagonal(direct, 0.0)
     finite = np.isfinite(direct)
     closure, pred = dijkstra(sp.csr_matrix(np.where(finite, np.maximum(direct, 1e-9), 0.0)),
-                             directed=False, return_predecessors=True)
+                             directed=True, return_predecessors=True)
     return closure, pred, direct
 
 
@@ -165,7 +169,7 @@ def leg(fg: FlightGraph, a: int, b: int, cost: float) -> np.ndarray:
     known to be ``cost`` (the search stops there)."""
     if a == b:
         return np.array([a])
-    dist, pred = dijkstra(fg.graph, directed=False, indices=a, return_predecessors=True,
+    dist, pred = dijkstra(fg.graph, directed=True, indices=a, return_predecessors=True,
                           limit=cost * (1 + 1e-9) + 1e-9)
     if not np.isfinite(dist[b]):
         raise RuntimeError(f"no path between graph nodes {a} and {b}")
@@ -188,7 +192,8 @@ def shortcut(points, clearance, radius: float, batch: int = 8) -> np.ndarray:
         nxt = i + 1  # consecutive path points are joined by a checked edge already
         for hi in range(n - 1, i + 1, -batch):
             j = np.arange(hi, max(hi - batch, i + 1), -1)
-            ok = clearance.segments_clear(np.repeat(points[i:i + 1], len(j), axis=0), points[j], radius)
+            ok = clearance.segments_clear(np.repeat(points[i:i + 1], len(j), axis=0), points[j], radius,
+                                          exact=False)
             if ok.any():
                 nxt = int(j[np.argmax(ok)])
                 break

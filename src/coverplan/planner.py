@@ -6,6 +6,7 @@ visibility matrix -> view selection -> flight graph -> tour -> legs -> Route.
 
 from __future__ import annotations
 
+import os
 import time
 
 import numpy as np
@@ -59,6 +60,48 @@ def check_settings(camera: Camera, gsd, security, min_views, min_triangulation_d
     return gsd, security, d_opt
 
 
+# Bytes per item, measured on the 3.2-million-triangle benchmark mesh and sample scenes
+# (peak resident memory over the counts), rounded up.
+BYTES_PER_TRIANGLE = 1400
+BYTES_PER_SAMPLE = 3000
+BYTES_PER_VIEW_PAIR = 160
+BYTES_PER_CANDIDATE = 400
+
+
+def physical_memory() -> float:
+    """Bytes of RAM on this machine (sysconf), or 8 GB where it cannot be read."""
+    try:
+        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return 8e9
+
+
+def memory_estimate(scene, camera: Camera, spacing: float, distance: float) -> dict:
+    """Rough peak memory of a plan, from triangles, samples and expected visibility pairs."""
+    triangles = sum(len(p.mesh.faces) for p in scene.parts)
+    area = sum(p.mesh.area for p in scene.targets)
+    samples = area / spacing ** 2
+    width, height = camera.footprint(distance)
+    candidates = 12.0 * area / max(width * height, spacing ** 2) + 500.0
+    per_view = min(samples, width * height / spacing ** 2)
+    pairs = candidates * per_view * 0.6
+    total = (triangles * BYTES_PER_TRIANGLE + samples * BYTES_PER_SAMPLE + pairs * BYTES_PER_VIEW_PAIR
+             + candidates * BYTES_PER_CANDIDATE + 3e8)
+    return {"bytes": total, "triangles": triangles, "samples": samples, "candidates": candidates, "pairs": pairs}
+
+
+def check_size(scene, camera: Camera, spacing: float, distance: float, max_memory: float | None) -> dict:
+    """Refuse, before any heavy work, a plan that would not fit in memory."""
+    limit = 0.8 * physical_memory() if max_memory is None else float(max_memory)
+    est = memory_estimate(scene, camera, spacing, distance)
+    if est["bytes"] > limit:
+        raise PlanningError(
+            f"this plan needs about {est['bytes'] / 1e9:.1f} GB ({est['triangles']:,} triangles, "
+            f"~{est['samples']:,.0f} surface samples at {spacing:.3g} m, ~{est['pairs']:,.0f} view pairs) but "
+            f"the limit is {limit / 1e9:.1f} GB; use a coarser --spacing or GSD, or raise --max-memory-gb")
+    return est
+
+
 def default_start(scene, limits: ViewLimits, margin: float) -> np.ndarray:
     """A point just outside the shot region, north-west of the target, at the minimum altitude."""
     lo, hi = scene.bounds("target")
@@ -100,7 +143,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
          min_altitude: float | None = None, spacing: float | None = None,
          gimbal_pitch_range_deg=(-90.0, 30.0), cost_weight: float = 1.0,
          lattice_spacing_m: float | None = None, lp_time_limit: float = 20.0,
-         progress: Progress | None = None) -> Route:
+         max_memory: float | None = None, progress: Progress | None = None) -> Route:
     """Plan one flight from ``start`` over shots covering the target and back.
 
     Raises ParameterError / PlanningError (with a one-line message) on impossible settings;
@@ -120,15 +163,16 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     margin = safety_margin(security)
     notes: list[str] = []
     spacing = default_spacing(scene, d_opt) if spacing is None else check_positive("spacing", spacing)
+    distance = standoff(camera, limits, margin)
+    check_size(scene, camera, spacing, distance, max_memory)
     start = default_start(scene, limits, margin) if start is None else check_start(scene, start, limits, notes)
 
     with progress.stage("surface samples"):
         samples = sample_surface(scene, spacing)
     with progress.stage("reachability"):
         reach = reachability(scene, samples, limits)
-    distance = standoff(camera, limits, margin)
     with progress.stage("candidate viewpoints"):
-        cands = facade_rings(scene, camera, limits, distance).concat(
+        cands = facade_rings(scene, camera, limits, distance, spacing).concat(
             along_normals(samples, limits, camera, distance))
         cands = keep_safe(scene, cands, limits, margin)
 

@@ -89,13 +89,19 @@ class RayCaster:
             origins[live] = origins[live] + d[live] * (dist + self.epsilon)[:, None]
         return counts
 
-    def inside(self, points) -> np.ndarray:
-        """Index of a mesh each point lies inside (majority of three parity rays), else -1."""
+    def inside_each(self, points) -> np.ndarray:
+        """(n, n_meshes) bool: inside each mesh by the majority of three parity rays."""
         points = np.asarray(points, dtype=float).reshape(-1, 3)
+        votes = np.zeros((len(points), max(self.n_meshes, 1)), dtype=np.int32)
         if self.n_meshes == 0 or len(points) == 0:
-            return np.full(len(points), -1, dtype=np.int64)
-        votes = np.zeros((len(points), self.n_meshes), dtype=np.int32)
+            return votes[:, :self.n_meshes] > 0
         for direction in _PARITY_DIRECTIONS:
             votes += self.crossings(points, direction) % 2
-        inside = votes >= 2
+        return votes >= 2
+
+    def inside(self, points) -> np.ndarray:
+        """Index of a mesh each point lies inside, else -1."""
+        inside = self.inside_each(points)
+        if inside.shape[1] == 0:
+            return np.full(len(inside), -1, dtype=np.int64)
         return np.where(inside.any(axis=1), np.argmax(inside, axis=1), -1)

@@ -89,7 +89,7 @@ def test_probes(scene, points, normals, owner, positions, rays, limits: ViewLimi
         clearance = scene.clearance_model(limits.security)
         safe = clearance.points_clear(positions[live], limits.security, check_inside=False)
         status[live[~safe]] = UNSAFE
-        culprit[live[~safe]] = clearance.kd_distance(positions[live[~safe]])[1]
+        culprit[live[~safe]] = clearance.kd_distance(positions[live[~safe]], limits.security * 2)[1]
     occ = np.flatnonzero(blocked)  # which mesh is in the way
     if len(occ):
         length = np.linalg.norm(positions[occ] - start[occ], axis=1)

@@ -46,6 +46,24 @@ def surface_lattice(triangles, max_edge: float) -> np.ndarray:
     return np.vstack(out) if out else np.zeros((0, 3))
 
 
+def surface_cover(mesh, max_edge: float) -> tuple[np.ndarray, float]:
+    """Points on a mesh and a radius such that every surface point lies within the radius of one.
+
+    The mesh's own vertices, plus a barycentric lattice on triangles longer than ``max_edge``;
+    fine meshes (scans) thus cost no more points than they have vertices.
+    """
+    tri = mesh.triangles
+    if len(tri) == 0:
+        return np.zeros((0, 3)), 0.0
+    edges = np.linalg.norm(tri - np.roll(tri, 1, axis=1), axis=2).max(axis=1)
+    splits = np.maximum(np.ceil(edges / max_edge), 1)
+    big = splits >= 2
+    points = [np.asarray(mesh.vertices, dtype=float)]
+    if big.any():
+        points.append(surface_lattice(tri[big], max_edge))
+    return np.vstack(points), float((edges / splits).max() / math.sqrt(3.0))
+
+
 def rotations_z_to(directions) -> np.ndarray:
     """Rotation matrices (n, 3, 3) taking +z onto each unit vector in ``directions``."""
     d = np.asarray(directions, dtype=float).reshape(-1, 3)
@@ -61,6 +79,10 @@ def rotations_z_to(directions) -> np.ndarray:
     flip = (s2 <= 1e-24) & (c < 0)
     rot[flip] = np.diag([1.0, -1.0, -1.0])
     return rot
+
+
+# From this many triangles, segment checks halve segments on KD bounds before asking FCL.
+HALVING_FROM_TRIANGLES = 100_000
 
 
 class ClearanceModel:
@@ -83,35 +105,53 @@ class ClearanceModel:
             extent = np.ptp(self._vertices, axis=0).max() if len(self._vertices) else 1.0
             cover_edge = max(extent / 200.0, 0.05)
         self.cover_edge = float(cover_edge)
-        self.cover_radius = self.cover_edge / math.sqrt(3.0) * 1.001
-        dense_v, dense_owner = [], []
+        dense_v, dense_owner, radius = [], [], 0.0
         for i, mesh in enumerate(self.meshes):
-            v = surface_lattice(mesh.triangles, self.cover_edge)
+            v, r = surface_cover(mesh, self.cover_edge)
             dense_v.append(v)
             dense_owner.append(np.full(len(v), i))
+            radius = max(radius, r)
+        # float64 rounding of lattice points: a hair of extra radius keeps the bound a bound
+        self.cover_radius = radius * 1.001 + 1e-9
         self._tree = cKDTree(np.vstack(dense_v)) if dense_v else None
         self._tree_owner = np.concatenate(dense_owner) if dense_owner else np.zeros(0, np.int64)
-        self._all = _bvh(self._vertices, self._faces) if len(self._faces) else None
+        self._bvh_all = None
         self._distance_request = fcl.DistanceRequest()
 
+    @property
+    def _all(self):
+        """One FCL BVH of every triangle, built on first use."""
+        if self._bvh_all is None and len(self._faces):
+            self._bvh_all = _bvh(self._vertices, self._faces)
+        return self._bvh_all
+
     # -- bounds -------------------------------------------------------------------
-    def kd_distance(self, points) -> tuple[np.ndarray, np.ndarray]:
-        """Distance to the nearest dense surface point (an upper bound) and its mesh."""
+    def kd_distance(self, points, limit: float = np.inf) -> tuple[np.ndarray, np.ndarray]:
+        """Distance to the nearest dense surface point (an upper bound) and its mesh.
+
+        Beyond ``limit`` the answer is inf (mesh -1): bounded searches end early, which matters
+        for points far from a scan's millions of vertices.
+        """
         points = np.asarray(points, dtype=float).reshape(-1, 3)
         if self._tree is None:
             return np.full(len(points), np.inf), np.full(len(points), -1)
-        d, i = self._tree.query(points, workers=-1)
-        return d, self._tree_owner[i]
+        d, i = self._tree.query(points, workers=-1, distance_upper_bound=limit)
+        found = np.isfinite(d)
+        owner = np.full(len(points), -1, dtype=np.int64)
+        owner[found] = self._tree_owner[i[found]]
+        return d, owner
 
-    def lower_bound(self, points) -> np.ndarray:
-        """A lower bound of the distance from each point to the nearest surface."""
-        return np.maximum(self.kd_distance(points)[0] - self.cover_radius, 0.0)
+    def lower_bound(self, points, limit: float = np.inf) -> np.ndarray:
+        """A lower bound of the distance from each point to the nearest surface (at most
+        ``limit`` - cover radius when nothing is within ``limit``)."""
+        d, _ = self.kd_distance(points, limit)
+        return np.maximum(np.minimum(d, limit) - self.cover_radius, 0.0)
 
     # -- yes/no ---------------------------------------------------------------------
     def points_clear(self, points, radius: float, check_inside: bool = True) -> np.ndarray:
         """True where a point is outside every mesh and at least ``radius`` from all of them."""
         points = np.asarray(points, dtype=float).reshape(-1, 3)
-        upper, _ = self.kd_distance(points)
+        upper, _ = self.kd_distance(points, radius + self.cover_radius * 1.01 + 1e-9)
         ok = upper - self.cover_radius >= radius
         unsure = np.flatnonzero(~ok & (upper >= radius))
         if len(unsure) and self._all is not None:
@@ -125,26 +165,64 @@ class ClearanceModel:
             ok[idx] = self.rays.inside(points[idx]) < 0
         return ok
 
-    def segments_clear(self, starts, ends, radius: float, lower_start=None, lower_end=None) -> np.ndarray:
+    def segments_clear(self, starts, ends, radius: float, lower_start=None, lower_end=None,
+                       exact: bool = True) -> np.ndarray:
         """True where every point of segment start->end keeps ``radius`` from all meshes.
 
         Assumes the endpoints are outside the meshes (a segment that enters one crosses its
         surface and so fails). A segment whose endpoints' clearance bounds ``c1``, ``c2``
-        satisfy ``(c1 + c2 - length) / 2 >= radius`` is clear without a query; the rest go
-        to FCL capsule collision.
+        satisfy ``(c1 + c2 - length) / 2 >= radius`` is clear at once. The others go to FCL
+        capsule collision on small meshes; on big ones (where each FCL query near a fine scan
+        costs milliseconds) they are halved until each piece is settled by the KD-tree bounds at
+        its midpoint, and only pieces too short for the bounds go to FCL, or with
+        ``exact=False`` count as not clear (cheaper, and right for graph edges).
         """
         starts = np.asarray(starts, dtype=float).reshape(-1, 3)
         ends = np.asarray(ends, dtype=float).reshape(-1, 3)
-        c1 = self.lower_bound(starts) if lower_start is None else lower_start
-        c2 = self.lower_bound(ends) if lower_end is None else lower_end
         length = np.linalg.norm(ends - starts, axis=1)
+        limit = radius + (length.max() if len(length) else 0.0) / 2.0 + self.cover_radius * 1.01 + 1e-9
+        c1 = self.lower_bound(starts, limit) if lower_start is None else lower_start
+        c2 = self.lower_bound(ends, limit) if lower_end is None else lower_end
         ok = (c1 + c2 - length) / 2.0 >= radius
-        unsure = np.flatnonzero(~ok)
-        if len(unsure) and self._all is not None:
+        todo = np.flatnonzero(~ok)
+        if len(todo) and len(self._faces) < HALVING_FROM_TRIANGLES:
             request = fcl.CollisionRequest()
-            for k, obj in zip(unsure, self._capsules(starts[unsure], ends[unsure], radius)):
+            for k, obj in zip(todo, self._capsules(starts[todo], ends[todo], radius)):
                 ok[k] = not fcl.collide(obj, self._all, request, fcl.CollisionResult())
+        elif len(todo):
+            ok[todo] = self._halving_check(starts[todo], ends[todo], radius, exact)
         return ok
+
+    def _halving_check(self, a, b, radius: float, exact: bool) -> np.ndarray:
+        clear = np.ones(len(a), dtype=bool)
+        owner = np.arange(len(a))
+        r = self.cover_radius
+        request = fcl.CollisionRequest()
+        while len(owner):
+            centre = (a + b) / 2.0
+            half = np.linalg.norm(b - a, axis=1) / 2.0
+            limit = radius + half.max() + r * 1.01 + 1e-9
+            upper, _ = self.kd_distance(centre, limit)
+            lower = np.minimum(upper, limit) - r
+            too_close = upper < radius  # the midpoint itself breaks the distance
+            clear[owner[too_close]] = False
+            settled = too_close | (lower - half >= radius) | ~clear[owner]
+            tiny = ~settled & (half <= r)
+            for k in np.flatnonzero(tiny):
+                if not clear[owner[k]]:
+                    continue
+                if not exact:
+                    clear[owner[k]] = False
+                    continue
+                obj = next(self._capsules(a[k:k + 1], b[k:k + 1], radius))
+                if fcl.collide(obj, self._all, request, fcl.CollisionResult()):
+                    clear[owner[k]] = False
+            split = ~settled & ~tiny
+            mid = centre[split]
+            a = np.vstack([a[split], mid])
+            b = np.vstack([mid, b[split]])
+            owner = np.concatenate([owner[split], owner[split]])
+        return clear
 
     # -- numbers --------------------------------------------------------------------
     def point_distance(self, points) -> tuple[np.ndarray, np.ndarray]:
@@ -166,6 +244,27 @@ class ClearanceModel:
         for k, obj in enumerate(self._capsules(starts, ends, 0.0)):
             dist[k], which[k] = self._nearest(obj)
         return np.maximum(dist, 0.0), which
+
+    def polyline_clearance(self, points, security: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per segment of a polyline: clearance, nearest mesh, and whether the number is exact.
+
+        Exact (FCL) for every segment that might come closer than ``security`` or might hold
+        the polyline's minimum; the others, provably farther, get their lower bound.
+        """
+        points = np.asarray(points, dtype=float).reshape(-1, 3)
+        a, b = points[:-1], points[1:]
+        length = np.linalg.norm(b - a, axis=1)
+        limit = 3.0 * security + length.max() + self.cover_radius * 1.01
+        upper, owner = self.kd_distance(points, limit)
+        lower = np.maximum(np.minimum(upper, limit) - self.cover_radius, 0.0)
+        seg_lower = np.maximum((lower[:-1] + lower[1:] - length) / 2.0, 0.0)
+        seg_upper = np.minimum(upper[:-1], upper[1:])
+        exact = (seg_lower < security) | (seg_lower <= seg_upper.min())
+        dist = seg_lower.copy()
+        which = np.where(upper[:-1] <= upper[1:], owner[:-1], owner[1:])
+        if exact.any():
+            dist[exact], which[exact] = self.segment_distance(a[exact], b[exact])
+        return dist, which, exact
 
     def closest_point_on_segment(self, start, end, samples: int = 257) -> tuple[np.ndarray, float]:
         """The point of a segment nearest to the meshes (dense sampling) and its distance."""

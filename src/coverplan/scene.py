@@ -42,6 +42,7 @@ class Scene:
     notes: list[str] = field(default_factory=list)
     vertical_crs: str | None = None
     geodetic_origin: list | None = None  # [lat, lon, h]: local x, y, z are east, north, up there
+    crs_unit_m: float = 1.0  # metres per unit of the CRS (source coordinates were scaled by it)
     _clearance: dict = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self):
@@ -108,6 +109,8 @@ class Scene:
             frame["vertical_crs"] = self.vertical_crs
         if self.geodetic_origin:
             frame["geodetic_origin"] = [float(v) for v in self.geodetic_origin]
+        if self.crs and self.crs_unit_m != 1.0:
+            frame["crs_unit_m"] = self.crs_unit_m
         return frame
 
     def to_source(self, points) -> np.ndarray:
@@ -122,7 +125,7 @@ def _part_name(path, raw: str, many: bool) -> str:
 
 def load_scene(targets: str | Path | Sequence[str | Path],
                obstacles: Iterable[str | Path] = (),
-               *, units: str = "m", ground: float | None = None,
+               *, units: str | None = None, ground: float | None = None,
                target_names: Sequence[str] | None = None,
                up_axis: str | None = None, building: str | None = None,
                lod: int | None = None, context_radius: float | None = None,
@@ -147,10 +150,8 @@ def load_scene(targets: str | Path | Sequence[str | Path],
     targets = list(targets)
     if not targets:
         raise ParameterError("give at least one target mesh")
-    try:
-        factor = UNITS[units]
-    except KeyError:
-        raise ParameterError(f"unknown units {units!r}; use one of {', '.join(UNITS)}") from None
+    if units is not None and units not in UNITS:
+        raise ParameterError(f"unknown units {units!r}; use one of {', '.join(UNITS)}")
     options = {"up_axis": up_axis, "building": building, "lod": lod, "context_radius": context_radius}
     parts: list[MeshPart] = []
     notes: list[str] = []
@@ -184,16 +185,55 @@ def load_scene(targets: str | Path | Sequence[str | Path],
         notes += src.notes
         many = len(src.meshes) > 1
         parts += [MeshPart(_part_name(path, raw, many), "obstacle", mesh, str(path)) for raw, mesh in src.meshes]
-    for part in parts:
-        part.mesh.apply_scale(factor)
     if user_crs and crs and user_crs != crs:
         raise ParameterError(f"--crs {user_crs} contradicts {file_of_crs}, which says {crs}")
+    # Units: as given, else the CRS's, else metres; a CRS and --units that disagree is an error.
+    crs_unit = _crs_unit(crs or user_crs)
+    factor = UNITS[units] if units is not None else (crs_unit or 1.0)
+    if crs_unit is not None and abs(crs_unit - factor) > 1e-9 * crs_unit:
+        named = [k for k, v in UNITS.items() if abs(v - crs_unit) < 1e-6]
+        raise ParameterError(f"--units {units} contradicts {crs or user_crs}, whose unit is "
+                             f"{named[0] if named else f'{crs_unit:g} m'}; drop --units")
+    if factor != 1.0 and crs_unit is not None and units is None:
+        notes.append(f"coordinates scaled by {factor:g}: the unit of {crs or user_crs}")
+    for part in parts:
+        part.mesh.apply_scale(factor)
     if geodetic_origin is not None and crs:
         raise ParameterError(f"{file_of_crs} is georeferenced ({crs}); a geodetic origin would contradict it")
     ground_m = None if ground is None else float(ground)
     scene = build_scene(parts, ground=ground_m, crs=crs or user_crs, vertical_crs=vertical, notes=notes)
     scene.geodetic_origin = geodetic_origin
-    return scene
+    scene.crs_unit_m = factor if (crs or user_crs) else 1.0
+    scene.notes += unit_warnings(scene, units or "m")
+    from .merge import unite_overlapping_targets
+    return unite_overlapping_targets(scene)
+
+
+def unit_warnings(scene: Scene, units: str) -> list[str]:
+    """Warn when the target's size suggests the units are wrong (a 20 km tall building...)."""
+    size = np.ptp(scene.bounds("target"), axis=0)
+    height, width = float(size[2]), float(size[:2].max())
+    biggest = max(height, width)
+    if biggest > 2000:
+        guess = "mm" if biggest > 20000 else "cm"
+        return [f"WARNING: the target is {width:,.0f} m wide and {height:,.0f} m tall; if the file is in "
+                f"{'millimetres' if guess == 'mm' else 'centimetres'}, pass --units {guess}"]
+    if biggest < 1.0:
+        return [f"WARNING: the target is only {biggest:.3f} m across"
+                + ("; if the file is in metres, drop --units" if units != "m" else "; check --units")]
+    return []
+
+
+def _crs_unit(crs: str | None) -> float | None:
+    """Metres per unit of a projected CRS's horizontal axes (None without a CRS)."""
+    if not crs:
+        return None
+    from pyproj import CRS
+    try:
+        axis = CRS.from_user_input(crs).axis_info
+    except Exception:
+        return None
+    return float(axis[0].unit_conversion_factor) if axis else None
 
 
 def _check_geodetic_origin(values) -> list[float]:

@@ -69,6 +69,22 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_tri_d
         r = rays[indptr[j]:indptr[j + 1]]
         return float(((count[s] < min_views).sum() + opens_pair(s, r).sum()) * (1.0 + x[j]))
 
+    def all_gains(candidates: np.ndarray) -> np.ndarray:
+        """gain() of many candidates at once (sparse products instead of a Python loop)."""
+        sub = vis[candidates]
+        rows = np.repeat(np.arange(len(candidates)), np.diff(sub.indptr))
+        entries = np.concatenate([np.arange(indptr[j], indptr[j + 1]) for j in candidates]) \
+            if len(candidates) else np.zeros(0, np.int64)
+        s = indices[entries]
+        value = (count[s] < min_views).astype(float)
+        open_pair = ~paired[s] & (count[s] >= 1)
+        if open_pair.any():
+            for lo in range(0, int(open_pair.sum()), 500_000):
+                k = np.flatnonzero(open_pair)[lo:lo + 500_000]
+                dots = np.einsum("nkd,nd->nk", stored[s[k]], rays[entries[k]])
+                value[k] += (dots <= cos_tri).any(axis=1)
+        return np.bincount(rows, weights=value, minlength=len(candidates)) * (1.0 + x[candidates])
+
     def take(j: int) -> None:
         s = indices[indptr[j]:indptr[j + 1]]
         r = rays[indptr[j]:indptr[j + 1]]
@@ -84,13 +100,18 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_tri_d
         take(j)
         taken[j] = True
         chosen.append(int(j))
-    heap = [(-g, j) for j in np.flatnonzero(~taken) if (g := gain(j)) > 0]
+    def fresh_heap() -> list:
+        free = np.flatnonzero(~taken)
+        g = all_gains(free)
+        return [(-float(v), int(j)) for v, j in zip(g, free) if v > 0]
+
+    heap = fresh_heap()
     heapq.heapify(heap)
     while True:
         if not heap:
             # Stored gains can be stale upwards too (a new view can open a pair), so look at
             # every candidate once more before stopping.
-            heap = [(-g, k) for k in np.flatnonzero(~taken) if (g := gain(k)) > 0]
+            heap = fresh_heap()
             if not heap:
                 break
             heapq.heapify(heap)

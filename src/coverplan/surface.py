@@ -32,6 +32,7 @@ class SurfaceSamples:
     kind: np.ndarray  # FACADE / ROOF / TERRACE / OPPOSED_TERRACE
     spacing: float
     left_out: dict[str, float] = field(default_factory=dict)  # cause -> m^2
+    flipped_normals: int = 0  # samples whose face pointed inward (open meshes)
 
     def __len__(self) -> int:
         return len(self.points)
@@ -42,7 +43,8 @@ class SurfaceSamples:
 
     def subset(self, mask) -> "SurfaceSamples":
         return SurfaceSamples(self.points[mask], self.normals[mask], self.area[mask],
-                              self.part[mask], self.kind[mask], self.spacing, dict(self.left_out))
+                              self.part[mask], self.kind[mask], self.spacing, dict(self.left_out),
+                              self.flipped_normals)
 
     def class_areas(self) -> dict[str, float]:
         return {name: float(self.area[self.kind == k].sum()) for k, name in enumerate(CLASS_NAMES)}
@@ -62,13 +64,15 @@ def sample_surface(scene, spacing: float, seed: int = 0, oversample: float = 6.0
     """
     spacing = check_positive("spacing", spacing)
     rng = np.random.default_rng(seed)
-    tol = max(0.01, 1e-5 * scene.extent)
+    # Ground contact: facing down (within 45 deg: scans are bumpy) and centred within 10 cm (or
+    # 0.5 % of the height) of the ground, which the lowest, noisiest vertex sets.
+    tol = max(0.1, 5e-3 * float(np.ptp(scene.bounds("target")[:, 2])))
     left_out = {"ground": 0.0, "below_ground": 0.0, "buried": 0.0}
     tri, normals, owner = [], [], []
     for index in scene.target_indices:
         mesh = scene.parts[index].mesh
-        on_ground = ((mesh.face_normals[:, 2] < -0.99)
-                     & (mesh.vertices[mesh.faces][:, :, 2].max(axis=1) <= scene.ground_z + tol))
+        on_ground = ((mesh.face_normals[:, 2] < -0.7)
+                     & (mesh.triangles_center[:, 2] <= scene.ground_z + tol))
         left_out["ground"] += float(mesh.area_faces[on_ground].sum())
         keep = ~on_ground
         tri.append(mesh.triangles[keep])
@@ -112,16 +116,26 @@ def sample_surface(scene, spacing: float, seed: int = 0, oversample: float = 6.0
     sample_normals = normals[sample_face]
     sample_part = owner[sample_face]
 
+    # Parts that are not closed solids may have faces turned inward: keep each sample's normal
+    # on the side its own part's ray parity calls outside.
+    step = scene.epsilon * 4
+    rows = np.flatnonzero([not scene.parts[i].mesh.is_watertight for i in sample_part])
+    flipped = 0
+    if len(rows):
+        ahead = scene.rays.inside_each(points[rows] + sample_normals[rows] * step)[np.arange(len(rows)), sample_part[rows]]
+        behind = scene.rays.inside_each(points[rows] - sample_normals[rows] * step)[np.arange(len(rows)), sample_part[rows]]
+        flip = rows[ahead & ~behind]
+        sample_normals[flip] *= -1
+        flipped = len(flip)
     # Buried: just off the surface, on its outer side, is inside some mesh.
-    probe = points + sample_normals * scene.epsilon * 4
-    buried = scene.rays.inside(probe) >= 0
+    buried = scene.rays.inside(points + sample_normals * step) >= 0
     left_out["buried"] = float(sample_area[buried].sum())
     keep = ~buried
     if not keep.any():
         raise PlanningError("the whole target surface is buried inside other meshes")
     samples = SurfaceSamples(points[keep], sample_normals[keep], sample_area[keep],
                              sample_part[keep], np.zeros(int(keep.sum()), dtype=np.int8), spacing,
-                             {k: v for k, v in left_out.items() if v > 0})
+                             {k: v for k, v in left_out.items() if v > 0}, flipped_normals=flipped)
     samples.kind = classify(samples.points, samples.normals, scene)
     return samples
 

@@ -9,6 +9,7 @@ resolved, each polygon counted once per LoD. Rings come from ``gml:posList``, ``
 from __future__ import annotations
 
 import re
+import zlib
 
 import numpy as np
 from lxml import etree
@@ -36,7 +37,7 @@ def read_citygml(path, building: str | None = None, lod: int | None = None,
             root = etree.parse(handle, parser).getroot()
     except etree.XMLSyntaxError as exc:
         raise InputFileError(path, f"is not well-formed XML ({exc.msg})") from None
-    except (OSError, EOFError) as exc:
+    except (OSError, EOFError, zlib.error) as exc:
         raise InputFileError(path, f"cannot be read ({exc})") from None
     if _local(root) != "CityModel":
         raise InputFileError(path, f"is not CityGML: the root element is <{_local(root) or '?'}>, not <CityModel>")

@@ -7,6 +7,7 @@ object takes the geometry of its children (3D BAG keeps it on the BuildingParts)
 from __future__ import annotations
 
 import json
+import zlib
 
 import numpy as np
 
@@ -19,7 +20,7 @@ def _load(path):
     try:
         with open_maybe_gzip(path, "rt") as handle:
             text = handle.read()
-    except (OSError, EOFError) as exc:
+    except (OSError, EOFError, zlib.error) as exc:
         raise InputFileError(path, f"cannot be read ({exc})") from None
     try:
         if path.name.lower().removesuffix(".gz").endswith(".jsonl"):
@@ -46,17 +47,23 @@ def read_cityjson(path, building: str | None = None, lod: int | None = None,
     except UnicodeDecodeError:
         raise InputFileError(path, "is not UTF-8 text") from None
     transform = header.get("transform") or {}
-    scale = np.asarray(transform.get("scale", [1, 1, 1]), dtype=float)
-    translate = np.asarray(transform.get("translate", [0, 0, 0]), dtype=float)
+    if not isinstance(transform, dict):
+        raise InputFileError(path, "'transform' must be an object with 'scale' and 'translate'")
+    try:
+        scale = np.asarray(transform.get("scale", [1, 1, 1]), dtype=float).reshape(3)
+        translate = np.asarray(transform.get("translate", [0, 0, 0]), dtype=float).reshape(3)
+    except (TypeError, ValueError):
+        raise InputFileError(path, "'transform' scale and translate must be three numbers each") from None
     metadata = header.get("metadata") or {}
-    reference = metadata.get("referenceSystem") or metadata.get("crs")
+    reference = metadata.get("referenceSystem") or metadata.get("crs") if isinstance(metadata, dict) else None
     crs = parse_crs(reference if isinstance(reference, str) else json.dumps(reference))
-    chunks = [(header.get("CityObjects") or {}, header.get("vertices") or [])]
-    chunks += [(f.get("CityObjects") or {}, f.get("vertices") or []) for f in features]
+    chunks = [(header.get("CityObjects"), header.get("vertices"))]
+    chunks += [(f.get("CityObjects"), f.get("vertices")) for f in features if isinstance(f, dict)]
     objects, skipped = [], 0
     for city_objects, vertices in chunks:
+        city_objects = city_objects or {}
         try:
-            verts = np.asarray(vertices, dtype=float).reshape(-1, 3) * scale + translate
+            verts = np.asarray(vertices or [], dtype=float).reshape(-1, 3) * scale + translate
         except (ValueError, TypeError):
             raise InputFileError(path, "has vertices that are not triples of numbers") from None
         if not isinstance(city_objects, dict):
@@ -64,28 +71,29 @@ def read_cityjson(path, building: str | None = None, lod: int | None = None,
         for oid, obj in city_objects.items():
             if not isinstance(obj, dict) or obj.get("parents"):
                 continue
-            city = CityObject(oid, str(obj.get("type", "CityObject")), (obj.get("attributes") or {}).get("name"))
-            for part in [obj] + [city_objects.get(c, {}) for c in obj.get("children", [])]:
-                for geom in part.get("geometry", []) or []:
-                    s = _add_geometry(city, geom, verts)
-                    skipped += s
+            attributes = obj.get("attributes") if isinstance(obj.get("attributes"), dict) else {}
+            city = CityObject(str(oid), str(obj.get("type", "CityObject")), attributes.get("name"))
+            children = obj.get("children") if isinstance(obj.get("children"), list) else []
+            parts = [obj] + [city_objects.get(c) for c in children if isinstance(c, str)]
+            for part in parts:
+                geometries = part.get("geometry") if isinstance(part, dict) else None
+                for geom in geometries if isinstance(geometries, list) else []:
+                    skipped += _add_geometry(city, geom, verts) if isinstance(geom, dict) else 1
             objects.append(city)
     if not objects:
         raise InputFileError(path, "holds no city objects")
     return to_source(objects, path, building, context_radius, crs, skipped, lod)
 
 
-def _surfaces(kind: str, boundaries):
+def _surfaces(kind: str, boundaries) -> list:
     """Each surface (a list of rings of vertex indices) in a geometry's boundaries."""
-    if kind in ("MultiSurface", "CompositeSurface"):
-        yield from boundaries
-    elif kind == "Solid":
-        for shell in boundaries:
-            yield from shell
-    elif kind in ("MultiSolid", "CompositeSolid"):
-        for solid in boundaries:
-            for shell in solid:
-                yield from shell
+    depth = {"MultiSurface": 0, "CompositeSurface": 0, "Solid": 1, "MultiSolid": 2, "CompositeSolid": 2}.get(kind)
+    level = [boundaries] if isinstance(boundaries, list) else []
+    if depth is None:
+        return []
+    for _ in range(depth + 1):
+        level = [item for group in level if isinstance(group, list) for item in group]
+    return [s for s in level if isinstance(s, list)]
 
 
 def _add_geometry(city: CityObject, geom: dict, verts: np.ndarray) -> int:
@@ -96,10 +104,10 @@ def _add_geometry(city: CityObject, geom: dict, verts: np.ndarray) -> int:
     except (TypeError, ValueError):
         return 1
     skipped = 0
-    for surface in _surfaces(kind, geom.get("boundaries") or []):
+    for surface in _surfaces(kind, geom.get("boundaries")):
         try:
-            rings = [verts[np.asarray(ring, dtype=np.int64)] for ring in surface]
-        except (IndexError, ValueError, TypeError):
+            rings = [verts[np.asarray(ring, dtype=np.int64).reshape(-1)] for ring in surface]
+        except (IndexError, ValueError, TypeError, OverflowError):
             skipped += 1
             continue
         tri = triangulate_rings(rings)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import trimesh
 
@@ -17,7 +19,9 @@ _Y_UP_TO_Z_UP = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0,
 def read_mesh(path, up_axis: str | None = None, **_ignored) -> MeshSource:
     ext = path.suffix.lower().lstrip(".")
     try:
-        loaded = trimesh.load(str(path), force="scene", process=False)
+        with warnings.catch_warnings(), np.errstate(all="ignore"):
+            warnings.simplefilter("ignore")  # numpy casts of garbage values while parsing
+            loaded = trimesh.load(str(path), force="scene", process=False)
     except Exception as exc:  # trimesh raises many types on malformed files
         raise InputFileError(path, f"cannot be read as .{ext} ({_short(exc)})") from None
     up = (up_axis or _DEFAULT_UP.get(ext, "z")).lower()

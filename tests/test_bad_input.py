@@ -1,0 +1,177 @@
+"""Every row of the README's bad-input table, fed through the CLI: exit status 2, one line
+naming the problem, no traceback (plus the non-error rows: they plan and say what happened)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+from conftest import MESHES, box
+
+from coverplan.cli import main
+
+L = str(MESHES / "l_prism.obj")
+CITY = MESHES / "citygml"
+HOUSE = "FZK_GUID_1F3E679D-E226-4535-926C-7390977FB25A"
+PLAN = ["--camera", "phantom4pro", "--gsd", "0.004", "--security", "3"]
+
+
+def run(capsys, *args) -> tuple[int, str, str]:
+    try:
+        code = main([str(a) for a in args])
+    except SystemExit as exc:  # argparse
+        code = exc.code
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def assert_one_line_error(code, err, *words):
+    assert code == 2, err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert len(lines) == 1, err
+    assert "Traceback" not in err
+    for w in words:
+        assert w.lower() in lines[0].lower(), (w, lines[0])
+
+
+def route_file(tmp_path, **change):
+    d = {"format": "coverplan-route", "version": 1, "units": "m",
+         "frame": {"crs": None, "origin": [0, 0, 0]},
+         "camera": {"sensor_width_mm": 13.2, "sensor_height_mm": 8.8, "focal_length_mm": 8.8,
+                    "image_width_px": 5472, "image_height_px": 3648},
+         "params": {"gsd_m": 0.004, "security_m": 3.0},
+         "waypoints": [{"position": [0, 0, 5], "shot": True, "heading_deg": 0, "gimbal_pitch_deg": 0,
+                        "leg": "coverage"}]}
+    d.update({k: v for k, v in change.items() if k != "raw"})
+    path = tmp_path / "route.json"
+    path.write_text(change.get("raw") or json.dumps(d))
+    return path
+
+
+def file_with(tmp_path, name, content):
+    path = tmp_path / name
+    path.write_bytes(content if isinstance(content, bytes) else content.encode())
+    return path
+
+
+def nan_obj(tmp_path):
+    lines = box(0, 0, 0, 10, 10, 10).export(file_type="obj").splitlines()
+    first = next(k for k, line in enumerate(lines) if line.startswith("v "))
+    lines[first] = "v nan 0 0"
+    return file_with(tmp_path, "nan.obj", "\n".join(lines))
+
+
+# (row in the README table, CLI arguments built from tmp_path, words the message must hold)
+ROWS = {
+    "missing file": (lambda t: ["plan", t / "gone.obj", *PLAN, "-o", t / "r.json"], ["gone.obj", "no such file"]),
+    "empty file": (lambda t: ["plan", file_with(t, "empty.stl", b""), *PLAN, "-o", t / "r.json"], ["empty.stl", "empty"]),
+    "unsupported format": (lambda t: ["plan", file_with(t, "m.xyz", "1 2 3"), *PLAN, "-o", t / "r.json"],
+                           ["m.xyz", "unsupported format"]),
+    "unreadable mesh (garbage STL)": (lambda t: ["plan", file_with(t, "j.stl", b"\x00\x01garbage" * 40), *PLAN,
+                                                 "-o", t / "r.json"], ["j.stl"]),
+    "unreadable mesh (not OBJ)": (lambda t: ["plan", file_with(t, "j.obj", "this is not an obj file\n"), *PLAN,
+                                             "-o", t / "r.json"], ["j.obj"]),
+    "mesh with no faces": (lambda t: ["plan", file_with(t, "p.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n"), *PLAN,
+                                      "-o", t / "r.json"], ["p.obj"]),
+    "NaN/inf vertices": (lambda t: ["plan", nan_obj(t), *PLAN, "-o", t / "r.json"], ["nan"]),
+    "target inside an obstacle": (lambda t: ["plan", MESHES / "gabled_house.obj", "--obstacles",
+                                             _big_box(t), *PLAN, "-o", t / "r.json"], ["buried"]),
+    "start inside a mesh": (lambda t: ["plan", L, *PLAN, "--start", "20", "20", "4", "-o", t / "r.json"],
+                            ["inside", "l_prism"]),
+    "start within the security distance": (lambda t: ["plan", L, *PLAN, "--start", "13", "25", "4", "-o", t / "r.json"],
+                                           ["closer than the security distance"]),
+    "GSD finer than the security distance allows": (
+        lambda t: ["plan", L, "--camera", "phantom4pro", "--gsd", "0.0005", "--security", "3", "-o", t / "r.json"],
+        ["finest gsd"]),
+    "unknown camera preset": (lambda t: ["plan", L, "--camera", "hasselblad", "--gsd", "0.004", "--security", "3",
+                                         "-o", t / "r.json"], ["unknown camera preset", "phantom4pro"]),
+    "camera with a zero or negative size": (
+        lambda t: ["plan", L, "--sensor-mm", "0", "8.8", "--focal-mm", "8.8", "--image-px", "5472", "3648",
+                   "--gsd", "0.004", "--security", "3", "-o", t / "r.json"], ["sensor_width_mm"]),
+    "GSD <= 0": (lambda t: ["plan", L, "--camera", "phantom4pro", "--gsd", "-0.01", "--security", "3",
+                            "-o", t / "r.json"], ["gsd"]),
+    "spacing <= 0": (lambda t: ["plan", L, *PLAN, "--spacing", "0", "-o", t / "r.json"], ["spacing"]),
+    "contradictory units": (lambda t: ["plan", CITY / "lod2_buildings_v2.json.gz", "--building", HOUSE, "--units", "mm",
+                                       *PLAN, "-o", t / "r.json"], ["--units mm", "contradicts", "EPSG:3068"]),
+    "contradictory CRS": (lambda t: ["plan", CITY / "lod2_buildings_v2.json.gz", "--building", HOUSE, "--crs",
+                                     "EPSG:25832", *PLAN, "-o", t / "r.json"], ["contradicts"]),
+    "scene larger than memory allows": (lambda t: ["plan", L, *PLAN, "--spacing", "0.01", "--max-memory-gb", "1",
+                                                   "-o", t / "r.json"], ["needs about", "gb", "--spacing"]),
+    "route file that is not a route": (lambda t: ["evaluate", route_file(t, format="geojson"), "--target", L],
+                                       ["route.json", "format"]),
+    "route file without waypoints": (lambda t: ["evaluate", route_file(t, waypoints=[]), "--target", L],
+                                     ["route.json", "no waypoints"]),
+    "route file with NaN coordinates": (
+        lambda t: ["evaluate", route_file(t, raw=route_file(t).read_text().replace("[0, 0, 5]", "[0, NaN, 5]")),
+                   "--target", L], ["route.json", "waypoint 0 position"]),
+    "route file that is not JSON": (lambda t: ["evaluate", route_file(t, raw="{not json"), "--target", L],
+                                    ["route.json", "json"]),
+    "broken CityGML": (lambda t: ["plan", file_with(t, "b.gml", "<CityModel><cityObjectMember>"), *PLAN,
+                                  "-o", t / "r.json"], ["b.gml", "not well-formed xml"]),
+    "broken CityJSON": (lambda t: ["plan", file_with(t, "b.city.json", '{"type": "CityJSON", "CityObjects": {'), *PLAN,
+                                   "-o", t / "r.json"], ["b.city.json", "not valid json"]),
+    "unknown building id": (lambda t: ["plan", CITY / "lod2_buildings_v3.gml.gz", "--building", "NOPE", *PLAN,
+                                       "-o", t / "r.json"], ["no city object with id", "FZK_GUID_"]),
+    "unsupported LoD": (lambda t: ["plan", CITY / "lod2_buildings_v3.gml.gz", "--building", HOUSE, "--lod", "0", *PLAN,
+                                   "-o", t / "r.json"], ["unsupported lod 0"]),
+    "geographic export without a CRS": (lambda t: ["plan", L, *PLAN, "--export", "kml", "-o", t / "r.json"],
+                                        ["georeference", "--crs"]),
+    "output exists": (lambda t: ["plan", L, *PLAN, "-o", file_with(t, "r.json", "{}")], ["--force"]),
+}
+
+
+def _big_box(tmp_path):
+    path = tmp_path / "hangar.obj"
+    box(0, 0, -1, 60, 60, 30).export(path)
+    return path
+
+
+@pytest.mark.parametrize("row", sorted(ROWS))
+def test_bad_input_row(capsys, tmp_path, row):
+    build, words = ROWS[row]
+    code, _out, err = run(capsys, *build(tmp_path))
+    assert_one_line_error(code, err, *words)
+
+
+def test_every_row_is_in_the_readme():
+    readme = (MESHES.parent / "README.md").read_text()
+    for row in ROWS:
+        assert f"| {row} |" in readme, row
+
+
+def test_unreachable_surface_is_planned_around_and_reported(capsys, tmp_path):
+    """Not an error: the rest is planned, the summary says what is hidden and why."""
+    wall = tmp_path / "wall.obj"
+    box(0, 0, 0, 16, 8, 10).export(wall)
+    shed = tmp_path / "shed.obj"
+    box(5, -2.3, 0, 11, -0.3, 6).export(shed)
+    code, out, _err = run(capsys, "plan", wall, "--obstacles", shed, *PLAN, "-o", tmp_path / "r.json")
+    assert code == 0 and "not covered" in out and "occluded by obstacle 'shed'" in out
+
+
+def test_wrong_units_are_warned(capsys, tmp_path):
+    from coverplan import load_scene
+    mm = tmp_path / "mm.obj"
+    box(0, 0, 0, 12000, 9000, 25000).export(mm)  # a house in millimetres, read as metres
+    assert any("pass --units mm" in n for n in load_scene(mm).notes)
+    assert not any("WARNING" in n for n in load_scene(mm, units="mm").notes)
+    code, out, _err = run(capsys, "plan", mm, *PLAN, "--units", "mm", "-o", tmp_path / "r.json", "-q")
+    assert code == 0
+
+
+def test_argparse_errors_are_one_line_too(capsys, tmp_path):
+    code, _, err = run(capsys, "plan", L, "--camera", "phantom4pro", "--security", "3", "-o", tmp_path / "r.json")
+    assert_one_line_error(code, err, "--gsd")
+
+
+def test_real_process_prints_no_traceback(tmp_path):
+    """Through a real process, as a user runs it."""
+    bad = tmp_path / "broken.obj"
+    bad.write_text("f 1 2 3\n")
+    proc = subprocess.run([sys.executable, "-m", "coverplan.cli", "evaluate", str(tmp_path / "x.json"),
+                           "--target", str(bad)], capture_output=True, text=True)
+    assert proc.returncode == 2
+    assert "Traceback" not in proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1
