@@ -160,7 +160,7 @@ def cmd_plan(args) -> int:
                  min_views=args.min_views, min_triangulation_deg=args.min_triangulation_deg,
                  max_incidence_deg=args.max_incidence_deg, min_altitude=args.min_altitude,
                  spacing=args.spacing, gimbal_pitch_range_deg=(args.gimbal_min_deg, args.gimbal_max_deg),
-                 lp_time_limit=args.lp_time_limit, progress=progress,
+                 lp_time_limit=args.lp_time_limit, progress=progress, surface_classes=args.only,
                  max_memory=None if args.max_memory_gb is None else check_positive("--max-memory-gb", args.max_memory_gb) * 1e9)
     ev = None
     if args.evaluate or args.report or args.plot:
@@ -314,6 +314,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--shot-seconds", type=float, default=1.0, help="hover time per shot, for the estimate")
     p.add_argument("--lp-time-limit", type=float, default=20.0, metavar="S",
                    help="time for the LP that guides view selection and bounds it (0: plain greedy)")
+    p.add_argument("--only", nargs="+", default=None, metavar="CLASS",
+                   choices=["facade", "roof", "terrace", "opposed_terrace"],
+                   help="cover only these surfaces (facade, roof, terrace, opposed_terrace)")
     p.add_argument("--max-memory-gb", type=float, default=None, metavar="GB",
                    help="refuse plans estimated to need more (default: 80%% of this machine's RAM)")
     p.add_argument("--merge-obstacles-within", type=float, default=None, metavar="M",

@@ -19,13 +19,18 @@ from .visibility import imaging_pairs, view_rays, widest_pair_angle
 ORIENTATION_TOLERANCE_DEG = 0.5
 
 
-def view_limits(route: Route, scene) -> ViewLimits:
-    """The viewpoint rules a route declares in its params, in the scene's frame."""
+RULES = ("strict", "thesis")
+
+
+def view_limits(route: Route, scene, rule: str = "strict") -> ViewLimits:
+    """The viewpoint rules a route declares in its params, in the scene's frame. Under the
+    thesis's rule a point only has to face the camera (incidence < 90 deg)."""
     ground = route.params.get("ground_z_m", scene.ground_z)
     min_alt = route.params.get("min_altitude_m", route.security)
     lo, hi = route.params.get("gimbal_pitch_range_deg", (-90.0, 90.0))
+    incidence = float(route.param("max_incidence_deg")) if rule == "strict" else 89.9
     return ViewLimits(security=route.security, d_opt=route.d_opt,
-                      max_incidence_deg=float(route.param("max_incidence_deg")),
+                      max_incidence_deg=incidence,
                       min_z=float(ground) + float(min_alt), pitch_range_deg=(float(lo), float(hi)),
                       vfov_deg=route.camera.vfov_deg, ground_z=float(ground))
 
@@ -60,17 +65,29 @@ class Evaluation:
 
 
 def evaluate(route: Route, scene, spacing: float | None = None, samples: SurfaceSamples | None = None,
-             progress=None) -> Evaluation:
-    """Judge a route against a scene. Samples default to the planner's spacing and seed."""
-    limits = view_limits(route, scene)
+             progress=None, rule: str = "strict", classes=None) -> Evaluation:
+    """Judge a route against a scene. Samples default to the planner's spacing and seed.
+
+    ``rule`` "strict" is DESIGN.md's imaging rule; "thesis" is the thesis's: in the frustum,
+    in sight and facing the camera, at any range (GSD not checked). ``classes`` limits the
+    surface judged to some of facade / roof / terrace / opposed_terrace (default: the classes
+    the route was planned for, all when it does not say).
+    """
+    if rule not in RULES:
+        raise ValueError(f"rule must be one of {RULES}")
+    limits = view_limits(route, scene, rule)
     if samples is None:
         if spacing is None:
             spacing = route.params.get("sample_spacing_m") or default_spacing(scene, route.d_opt)
         samples = sample_surface(scene, spacing)
+    classes = route.params.get("surface_classes") if classes is None else classes
+    if classes:
+        samples = samples.subset(np.isin(samples.kind, [CLASS_NAMES.index(c) for c in classes]))
     shots = route.shots
+    reach_range = route.d_opt if rule == "strict" else 4.0 * scene.extent + route.d_opt
     pairs = imaging_pairs(route.positions[shots], route.heading_deg[shots], route.pitch_deg[shots],
                           route.camera, samples.points, samples.normals, scene.rays,
-                          max_range=route.d_opt, max_incidence_deg=float(route.param("max_incidence_deg")),
+                          max_range=reach_range, max_incidence_deg=limits.max_incidence_deg,
                           offset=scene.epsilon * 4, progress=progress)
     cam, pt, rng = pairs
     n = len(samples)
@@ -96,6 +113,7 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
     ev = Evaluation(route, samples, views, widest, covered, reach.reachable, reach.reason, pairs,
                     seg_d, seg_mesh, inside)
     ev.metrics = _metrics(ev, scene, limits)
+    ev.metrics["rule"] = rule
     return ev
 
 

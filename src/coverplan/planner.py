@@ -21,7 +21,7 @@ from .progress import Progress
 from .reachability import ViewLimits, reachability
 from .route import Route
 from .selection import coverage_state, select_views
-from .surface import default_spacing, sample_surface
+from .surface import CLASS_NAMES, default_spacing, sample_surface
 from .tour import solve_tour
 from .visibility import imaging_pairs, view_rays, visibility_matrix, widest_pair_angle
 
@@ -143,7 +143,8 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
          min_altitude: float | None = None, spacing: float | None = None,
          gimbal_pitch_range_deg=(-90.0, 30.0), cost_weight: float = 1.0,
          lattice_spacing_m: float | None = None, lp_time_limit: float = 20.0,
-         max_memory: float | None = None, progress: Progress | None = None) -> Route:
+         max_memory: float | None = None, surface_classes=None,
+         progress: Progress | None = None) -> Route:
     """Plan one flight from ``start`` over shots covering the target and back.
 
     Raises ParameterError / PlanningError (with a one-line message) on impossible settings;
@@ -169,6 +170,13 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
 
     with progress.stage("surface samples"):
         samples = sample_surface(scene, spacing)
+        if surface_classes:
+            unknown = set(surface_classes) - set(CLASS_NAMES)
+            if unknown:
+                raise ParameterError(f"unknown surface class {', '.join(sorted(unknown))}; classes: {', '.join(CLASS_NAMES)}")
+            samples = samples.subset(np.isin(samples.kind, [CLASS_NAMES.index(c) for c in surface_classes]))
+            if len(samples) == 0:
+                raise PlanningError(f"the target has no {' or '.join(surface_classes)} surface")
     with progress.stage("reachability"):
         reach = reachability(scene, samples, limits)
     with progress.stage("candidate viewpoints"):
@@ -238,6 +246,8 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
         waypoints = _fly(fg, order, pred, direct, scene, limits, margin)
     route = _route(waypoints, order, shots, specials, camera, scene, limits, gsd, security, min_views,
                    min_triangulation_deg, max_incidence_deg, min_alt, spacing, uncovered)
+    if surface_classes:
+        route.params["surface_classes"] = list(surface_classes)
     _final_check(route, scene, limits)
 
     covered_area = float(samples.area[selection.satisfied & reach.reachable].sum())
