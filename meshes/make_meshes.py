@@ -61,9 +61,10 @@ def main():
                   [C - 12, C + 12, 0], [C, C, 24]],
         faces=[[0, 2, 1], [0, 3, 2], [0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
     save(pyramid, "pyramid.obj")
-    # Figure 4.11: a large obstacle standing the full height and a small one between slices.
+    # Figure 4.11: a large obstacle standing the full height and a small one floating between
+    # the thesis's slices (at 5, 15, 25 m for its 10 m vertical coverage).
     large = cuboid(C + 14.5, C - 3, 0, C + 18.5, C + 3, 32)
-    small = cuboid(C - 1.5, C - 12.5, 14, C + 1.5, C - 10.5, 16)
+    small = cuboid(C - 1.5, C - 12.5, 9, C + 1.5, C - 10.5, 11)
     save(trimesh.util.concatenate([large, small]), "fig411_obstacles.obj")
 
     walls = cuboid(C - 5, C - 4, 0, C + 5, C + 4, 6)
