@@ -10,6 +10,7 @@ from independent import images, polyline_min_distance
 from coverplan import PlanningError, Route, evaluate, load_scene, plan
 from coverplan.cli import main
 from coverplan.scene import scene_from_meshes
+from coverplan.surface import CLASS_NAMES
 from coverplan.visibility import widest_pair_angle
 
 SECURITY = 3.0
@@ -212,3 +213,22 @@ def test_strict_evaluation_fails_unsafe_routes(capsys, tmp_path, thesis_camera):
     assert code == 1
     code, _err = cli(capsys, "evaluate", path, "--target", MESHES / "square_prism.obj")
     assert code == 0
+
+
+def test_only_roof_covers_the_roof_with_fewer_shots(capsys, tmp_path, planned):
+    """`--only roof`: every roof sample imaged twice (independent check), fewer shots than all."""
+    out = tmp_path / "roof.json"
+    code, err = cli(capsys, "plan", MESHES / "gabled_house.obj", "--camera", "thesis80", "--gsd",
+                    gsd_for(planned["gabled"][1].camera, 7.0), "--security", SECURITY, "--only", "roof",
+                    "-o", out, "-q")
+    assert code == 0, err
+    scene, full, _ = planned["gabled"]
+    route = Route.load(out)
+    assert route.params["surface_classes"] == ["roof"] and 0 < route.shot.sum() < full.shot.sum()
+    ev = evaluate(route, scene)
+    assert {CLASS_NAMES[k] for k in np.unique(ev.samples.kind)} == {"roof"} and ev.metrics["coverage_pct"] == pytest.approx(100.0)
+    triangles = np.vstack([m.triangles for m in scene.meshes])
+    views = sum(images(route.positions[k], route.heading_deg[k], route.pitch_deg[k], route.camera,
+                       ev.samples.points, ev.samples.normals, triangles, route.d_opt, 70.0,
+                       offset=scene.epsilon * 4).astype(int) for k in route.shots)
+    assert views.min() >= 2

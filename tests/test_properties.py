@@ -75,6 +75,7 @@ def test_random_scene_route_is_safe_and_claims_recheck(target, obs, opts):
     listed = {tuple(np.round(u["position"], 6)) for u in route.uncovered}
     claimed = np.array([tuple(np.round(p, 6)) not in listed for p in ev.samples.points])
     assert ev.covered[claimed].all()
+    assert not (ev.covered & ~ev.reachable).any()  # what the route images is reachable, evidently
     # and what is listed as unreachable really is: the evaluator finds no viewpoint either
     unreachable_listed = np.array([tuple(np.round(p, 6)) in listed for p in ev.samples.points]) & ~ev.reachable
     assert unreachable_listed.sum() == (~ev.reachable).sum()

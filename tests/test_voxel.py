@@ -55,8 +55,11 @@ def test_fully_hidden_surface_is_not_coverable(thesis_camera):
     route = plan(scene, thesis_camera, gsd=gsd_for(thesis_camera, 7.0), security=3.0, min_altitude=0.0,
                  surface_classes=("facade",), spacing=0.5, start=[0.5, 49.5, 0.5])
     ev = evaluate(route, scene)
-    assert ev.safe and ev.metrics["coverage_pct"] == pytest.approx(100.0)
-    assert ev.metrics["unreachable_area_m2"] > 10 and route.uncovered
+    assert ev.safe and ev.metrics["unreachable_area_m2"] > 0.5 * 15.0  # most of the 15 m² south face
+    listed = {tuple(np.round(u["position"], 6)) for u in route.uncovered}
+    is_listed = np.array([tuple(np.round(p, 6)) in listed for p in ev.samples.points])
+    assert (ev.covered | is_listed).all() and is_listed[~ev.reachable].all()
+    assert ev.metrics["coverage_pct"] > 90  # the rest: grazing views over the wall, listed with why
 
 
 def test_small_obstacle_between_slices_is_not_seen():

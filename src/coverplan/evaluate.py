@@ -96,7 +96,6 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
     min_views = int(route.param("min_views"))
     min_tri = float(route.param("min_triangulation_deg"))
     covered = (views >= min_views) & (widest >= min_tri)
-    reach = reachability(scene, samples, limits)
 
     # Safety along the whole polyline: exact FCL distances per segment, inside tests per waypoint.
     positions = route.positions
@@ -110,6 +109,12 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
     for k in np.flatnonzero(inside):  # a waypoint inside a mesh has no clearance at all
         seg_d[max(k - 1, 0)] = 0.0
         seg_d[min(k, len(seg_d) - 1)] = 0.0
+    # A shot the route flies safely proves the samples it images (under DESIGN.md's rule) reachable.
+    last = len(seg_d) - 1
+    near = np.minimum(seg_d[np.clip(shots - 1, 0, last)], seg_d[np.clip(shots, 0, last)])
+    shot_safe = (near >= route.security) & ~inside[shots] & (positions[shots, 2] >= limits.min_z - 1e-9)
+    witness = shot_safe[cam] & (rng <= route.d_opt) & (rule == "strict")
+    reach = reachability(scene, samples, limits).with_witnesses(np.bincount(pt[witness], minlength=n) > 0)
     ev = Evaluation(route, samples, views, widest, covered, reach.reachable, reach.reason, pairs,
                     seg_d, seg_mesh, inside)
     ev.metrics = _metrics(ev, scene, limits)

@@ -202,6 +202,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
                      np.concatenate([pairs[2], more[2]]))
             cands = cands.concat(extra)
     vis = visibility_matrix(len(cands), len(samples), pairs)
+    reach = reach.with_witnesses(np.bincount(pairs[1], minlength=len(samples)) > 0)
     rays = _rays_in_csr_order(vis, pairs, cands.positions, samples.points)
 
     with progress.stage("view selection", unit="shot") as update:

@@ -103,6 +103,13 @@ class Reachability:
     reachable: np.ndarray  # bool per sample
     reason: list  # per sample: "" when reachable, else why not
 
+    def with_witnesses(self, imaged: np.ndarray) -> "Reachability":
+        """Also reachable: samples some known safe viewpoint images (the probes only sample
+        the positions, so a real viewpoint can prove one they missed)."""
+        found = np.asarray(imaged, dtype=bool) & ~self.reachable
+        reason = [("" if f else r) for f, r in zip(found, self.reason)]
+        return Reachability(self.reachable | found, reason)
+
 
 def reachability(scene, samples, limits: ViewLimits, n_directions: int = 48,
                  range_fractions=(0.1, 0.4, 0.7, 1.0)) -> Reachability:
