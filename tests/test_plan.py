@@ -232,3 +232,26 @@ def test_only_roof_covers_the_roof_with_fewer_shots(capsys, tmp_path, planned):
                        ev.samples.points, ev.samples.normals, triangles, route.d_opt, 70.0,
                        offset=scene.epsilon * 4).astype(int) for k in route.shots)
     assert views.min() >= 2
+
+
+def test_distant_start_behind_a_wall_keeps_the_fine_lattice(thesis_camera):
+    """A take-off 150 m away, behind a 60 m wide, 20 m tall wall: the flight goes round it
+    safely (independent distance check) and the paths between shots keep the lattice spacing
+    of a start next to the building."""
+    house = load_scene(MESHES / "gabled_house.obj").targets[0].mesh
+    wall = box(100, -5, 0, 102, 55, 20)
+    scene = scene_from_meshes([house], [wall])
+    gsd = gsd_for(thesis_camera, 7.0)
+    near = plan(scene, thesis_camera, gsd=gsd, security=SECURITY)
+    far = plan(scene, thesis_camera, gsd=gsd, security=SECURITY, start=[175.0, 25.0, 3.0])
+    assert far.metrics["lattice_spacing_m"] == near.metrics["lattice_spacing_m"]
+    ev = evaluate(far, scene)
+    assert ev.safe and ev.metrics["coverage_pct"] == pytest.approx(100.0)
+    assert polyline_min_distance(far.positions, scene.meshes, 0.25) >= SECURITY
+    crossing = np.flatnonzero(np.diff(np.sign(far.positions[:, 0] - 101.0)) != 0)
+    assert len(crossing) == 2  # out and back over x = 101 ...
+    for k in crossing:  # ... round the wall's ends or over its top, not through it
+        a, b = far.positions[k], far.positions[k + 1]
+        t = (101.0 - a[0]) / (b[0] - a[0])
+        y, z = a[1:] + t * (b[1:] - a[1:])
+        assert y < -5 - SECURITY or y > 55 + SECURITY or z > 20 + SECURITY

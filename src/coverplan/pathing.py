@@ -1,6 +1,7 @@
 """Collision-free legs between shots: a lattice in free space, the thesis's cost, Dijkstra.
 
-The lattice is a regular grid of spacing ``h`` over the shot region and its surroundings.
+The lattice is a regular grid of spacing ``h`` over the shot region and its surroundings,
+and a coarser one from there out to a distant start point.
 Nodes keep the security distance (KD-tree bound, FCL where it cannot tell); an edge joins
 26-neighbours when its straight segment keeps it too (Lipschitz bound from the nodes'
 clearances, FCL capsules for the rest). Shots and the start join the lattice and each other
@@ -49,23 +50,15 @@ def node_costs(points, scene_distance, target_distance, d_opt: float) -> tuple[n
     return (k - scene_distance) + np.abs(target_distance - d_opt), max(k, 1e-9)
 
 
-def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float,
-                       cost_weight: float = 1.0, progress=None) -> FlightGraph:
-    """Lattice + special points (start, shots) with safe, cost-weighted edges."""
-    clearance = scene.clearance_model(limits.security)
-    radius = limits.security + margin
-    specials = np.asarray(specials, dtype=float).reshape(-1, 3)
-    lo, hi = scene.bounds("target")
-    pad = limits.d_opt + 2 * spacing
-    lo = np.minimum(lo - pad, specials.min(axis=0) - spacing)
-    hi = np.maximum(hi + pad, specials.max(axis=0) + spacing)
-    lo[2] = limits.min_z
-    hi[2] = max(hi[2], limits.min_z + spacing)
+def _lattice(clearance, lo, hi, spacing: float, radius: float, far: float, hole=None):
+    """Safe nodes of a regular lattice over the box [lo, hi] (none strictly inside the box
+    ``hole``), their distance bounds, and the 26-neighbour edges whose segments are safe."""
     shape = np.floor((hi - lo) / spacing).astype(int) + 1
     grid = np.stack(np.meshgrid(*[np.arange(s) for s in shape], indexing="ij"), axis=-1).reshape(-1, 3)
     nodes = lo + grid * spacing
-    # Distances matter up to a few d_opt (for the cost); bounded searches are much faster.
-    far = radius + 2.0 * limits.d_opt + spacing * 2
+    if hole is not None:
+        outside = ~((nodes > hole[0]) & (nodes < hole[1])).all(axis=1)
+        grid, nodes = grid[outside], nodes[outside]
     upper, _owner = clearance.kd_distance(nodes, far)
     upper = np.minimum(upper, far)
     lower = np.maximum(upper - clearance.cover_radius, 0.0)
@@ -74,8 +67,6 @@ def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float
     if len(unsure):
         ok[unsure] = clearance.points_clear(nodes[unsure], radius, check_inside=False)
     # Nodes inside buildings stay in components the start cannot reach; no inside test needed.
-    index = np.full(len(nodes), -1, dtype=np.int64)
-    index[ok] = np.arange(int(ok.sum()))
     keep_grid = grid[ok]
     nodes, lower, upper = nodes[ok], lower[ok], upper[ok]
     flat = np.full(tuple(shape), -1, dtype=np.int64)
@@ -93,19 +84,77 @@ def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float
     if len(rows):
         safe = clearance.segments_clear(nodes[rows], nodes[cols], radius, lower[rows], lower[cols], exact=False)
         rows, cols = rows[safe], cols[safe]
+    return nodes, lower, upper, rows, cols
+
+
+def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float,
+                       cost_weight: float = 1.0, max_coarse_nodes: int = 50_000, progress=None) -> FlightGraph:
+    """Lattice + special points (start, shots) with safe, cost-weighted edges.
+
+    The lattice has ``spacing`` around the target and its shots; a start point outside that
+    box gets a coarser lattice (at least 3x the spacing) between it and the box, so a take-off
+    far away does not coarsen the paths between shots.
+    """
+    clearance = scene.clearance_model(limits.security)
+    radius = limits.security + margin
+    specials = np.asarray(specials, dtype=float).reshape(-1, 3)
+    far = radius + 2.0 * limits.d_opt + spacing * 2  # distances matter up to here (for the cost)
+    lo, hi = scene.bounds("target")
+    pad = limits.d_opt + 2 * spacing
+    lo = np.minimum(lo - pad, specials[1:].min(axis=0, initial=np.inf) - spacing)
+    hi = np.maximum(hi + pad, specials[1:].max(axis=0, initial=-np.inf) + spacing)
+    lo[2] = limits.min_z
+    hi[2] = max(hi[2], limits.min_z + spacing)
+    nodes, lower, upper, rows, cols = _lattice(clearance, lo, hi, spacing, radius, far)
+    fine_lo, fine_hi = lo, lo + (np.floor((hi - lo) / spacing)) * spacing  # the outermost fine nodes
+    n_fine = len(nodes)
+    coarse = None
+    if not ((specials[0] >= fine_lo) & (specials[0] <= fine_hi)).all():
+        c_lo = np.minimum(fine_lo, specials[0])
+        c_hi = np.maximum(fine_hi, specials[0])
+        c_hi[2] = max(c_hi[2], specials[0, 2] + spacing)
+        big = float(np.prod(c_hi - c_lo + 2 * spacing))
+        step = max(3.0 * spacing, (big / max_coarse_nodes) ** (1.0 / 3.0))
+        c_lo = c_lo - step
+        c_lo[2] = limits.min_z
+        c_hi = c_hi + step
+        coarse = _lattice(clearance, c_lo, c_hi, step, radius, far, hole=(fine_lo, fine_hi))
+        c_nodes, c_lower, c_upper, c_rows, c_cols = coarse
+        # Join the two lattices: each coarse node near the fine box to its nearest fine nodes.
+        if len(c_nodes) and n_fine:
+            gap = np.maximum(np.maximum(fine_lo - c_nodes, c_nodes - fine_hi), 0.0).max(axis=1)
+            rim = np.flatnonzero(gap <= 1.5 * step)
+            d, j = cKDTree(nodes).query(c_nodes[rim], k=8, distance_upper_bound=2.0 * step)
+            live = np.isfinite(d)
+            a = np.repeat(rim, 8).reshape(-1, 8)[live]
+            b = j[live]
+            safe = clearance.segments_clear(c_nodes[a], nodes[b], radius, c_lower[a], lower[b], exact=False)
+            link_r, link_c = a[safe] + n_fine, b[safe]
+        else:
+            link_r = link_c = np.zeros(0, dtype=np.int64)
+        rows = np.concatenate([rows, c_rows + n_fine, link_r])
+        cols = np.concatenate([cols, c_cols + n_fine, link_c])
+        nodes = np.vstack([nodes, c_nodes])
+        lower = np.concatenate([lower, c_lower])
+        upper = np.concatenate([upper, c_upper])
     if progress is not None:
         progress(1)
 
     # Special points join lattice nodes and each other where the straight segment is safe.
     points = np.vstack([nodes, specials])
     n_lat = len(nodes)
-    tree = cKDTree(nodes) if n_lat else None
     reach = spacing * 2.0
     extra_r, extra_c = [], []
-    if tree is not None:
-        near = tree.query_ball_point(specials, reach)
-        a = np.repeat(np.arange(len(specials)), [len(x) for x in near]) + n_lat
-        b = np.concatenate([np.asarray(x, dtype=np.int64) for x in near]) if len(a) else np.zeros(0, np.int64)
+    # Specials join the fine lattice; a start outside it joins the coarse one.
+    groups = [(np.arange(len(specials)) if coarse is None else np.arange(1, len(specials)), 0, n_fine, reach)]
+    if coarse is not None:
+        groups.append((np.array([0]), n_fine, n_lat, 2.0 * step))
+    for which, first, stop, r in groups:
+        if stop <= first or not len(which):
+            continue
+        near = cKDTree(nodes[first:stop]).query_ball_point(specials[which], r)
+        a = np.repeat(which, [len(x) for x in near]) + n_lat
+        b = np.concatenate([np.asarray(x, dtype=np.int64) + first for x in near]) if len(a) else np.zeros(0, np.int64)
         extra_r.append(a)
         extra_c.append(b)
     pairs = cKDTree(specials).query_pairs(max(reach, limits.d_opt), output_type="ndarray")

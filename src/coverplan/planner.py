@@ -218,7 +218,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     shots = cands.subset(chosen)
     with progress.stage("lattice and Dijkstra"):
         specials = np.vstack([start, shots.positions])
-        region = np.ptp(np.vstack([scene.bounds("target"), specials]), axis=0) + 2 * (d_opt + security)
+        region = np.ptp(np.vstack([scene.bounds("target"), shots.positions]), axis=0) + 2 * (d_opt + security)
         h = lattice_spacing_m or lattice_spacing(d_opt, security, float(np.prod(region)), MAX_LATTICE_NODES)
         fg = build_flight_graph(scene, limits, specials, margin=margin, spacing=h, cost_weight=cost_weight)
         limit = 4.0 * max(d_opt, 3 * h) * (1.0 + 2.0 * cost_weight)
