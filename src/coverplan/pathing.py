@@ -145,8 +145,8 @@ def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float
     n_lat = len(nodes)
     reach = spacing * 2.0
     extra_r, extra_c = [], []
-    # Specials join the fine lattice; a start outside it joins the coarse one.
-    groups = [(np.arange(len(specials)) if coarse is None else np.arange(1, len(specials)), 0, n_fine, reach)]
+    # Specials join the fine lattice; a start outside it joins the coarse one as well.
+    groups = [(np.arange(len(specials)), 0, n_fine, reach)]
     if coarse is not None:
         groups.append((np.array([0]), n_fine, n_lat, 2.0 * step))
     for which, first, stop, r in groups:
