@@ -47,7 +47,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
     repeats = 1 if args.quick else 3
     camera = get_camera("thesis80")
-    gsd = 7.0 * camera.pixel_pitch_mm / camera.focal_length_mm
+    gsd = float(camera.gsd_at(7.0))
     names = ["square", "prism"] if args.quick else list(SCENES)
     rows = []
     for name in names:

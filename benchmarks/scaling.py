@@ -28,7 +28,7 @@ from coverplan.scene import scene_from_meshes
 from coverplan.voxel import grid_from_polygons, plan_2d
 planner, m = sys.argv[1], int(sys.argv[2])
 camera = get_camera("thesis80")
-gsd = 7.0 * camera.pixel_pitch_mm / camera.focal_length_mm
+gsd = float(camera.gsd_at(7.0))
 square = shapes_2d()["square"]
 cell = 50.0 / m
 if planner == "voxel":

@@ -36,12 +36,6 @@ START = (0.5, 49.5)
 D_OPT, SECURITY = 7.0, 3.0
 
 
-def coverage_length(route) -> float:
-    rows = route.shots
-    p = route.positions[rows[0]:rows[-1] + 1]
-    return float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum())
-
-
 def obstacles(shape, seed: int):
     """3 big (9 m) and 5 small (4 m) squares at random in the grid, none overlapping the target
     or closer than the security distance (plus 1 m) to the start corner."""
@@ -64,10 +58,10 @@ def judged(name, planner, route, scene, seconds, perimeter, failure=None):
         return row
     strict = evaluate(route, scene, rule="strict", classes=("facade",)).metrics
     thesis = evaluate(route, scene, rule="thesis", classes=("facade",)).metrics
-    row.update({"shots": thesis["shots"], "path_m": coverage_length(route), "total_path_m": route.path_length,
+    row.update({"shots": thesis["shots"], "path_m": route.coverage_length, "total_path_m": route.path_length,
                 "nt_imaged": thesis["nt_imaged"]["mean"], "d_image": thesis["d_image_m"]["mean"],
                 "db_viewpoints": thesis["db_viewpoints_m"]["mean"], "p_outliers": thesis["p_outliers"],
-                "p_surface1": thesis["shots"] / perimeter, "p_surface2": coverage_length(route) / perimeter,
+                "p_surface1": thesis["shots"] / perimeter, "p_surface2": route.coverage_length / perimeter,
                 "cover_thesis_pct": thesis["coverage_pct"], "cover_strict_pct": strict["coverage_pct"],
                 "p_outliers_strict": strict["p_outliers"], "safe": strict["safe"],
                 "min_clearance_m": strict["min_clearance_m"]})
@@ -125,7 +119,7 @@ def main(argv=None):
     parser.add_argument("--quick", action="store_true")
     args = parser.parse_args(argv)
     camera = get_camera("thesis80")
-    gsd = D_OPT * camera.pixel_pitch_mm / camera.focal_length_mm
+    gsd = float(camera.gsd_at(D_OPT))
     shapes = shapes_2d()
     names = ["square"] if args.quick else list(shapes)
     rows = []

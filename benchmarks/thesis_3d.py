@@ -16,7 +16,7 @@ import statistics
 import time
 
 import numpy as np
-from common import MESHES, THESIS_3D, table, write_json
+from common import MESHES, THESIS_3D, table, thesis_totals, write_json
 
 from coverplan import Camera, evaluate, load_scene, plan
 from coverplan.voxel import plan_3d
@@ -33,23 +33,12 @@ def thesis_camera() -> Camera:
     return Camera(36.0, height, focal, 6000, int(round(6000 * height / 36.0)), "thesis80x71")
 
 
-def measures(route, scene, rule):
-    m = evaluate(route, scene, rule=rule).metrics
-    return m
-
-
-def coverage_length(route) -> float:
-    rows = route.shots
-    p = route.positions[rows[0]:rows[-1] + 1]
-    return float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum())
-
-
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true")
     args = parser.parse_args(argv)
     camera = thesis_camera()
-    gsd = 7.0 * camera.pixel_pitch_mm / camera.focal_length_mm
+    gsd = float(camera.gsd_at(7.0))
     names = ["prism"] if args.quick else list(SCENES)
     path_rows, totals = [], []
     for name in names:
@@ -60,7 +49,7 @@ def main(argv=None):
         vox_s = time.perf_counter() - t
         thesis_paths = list(THESIS_3D.get(name, {}).get("paths", {}).items())
         for flight in vox.flights:
-            kind = flight.name.split(" at ")[0].replace("facades", "facades")
+            kind = flight.name.split(" at ")[0]
             match = next((v for k, v in thesis_paths if k == kind), None)
             path_rows.append({"scene": name, "path": flight.name, "voxel_shots": flight.shots,
                               "voxel_path_m": flight.coverage_length, "voxel_s": flight.seconds,
@@ -72,8 +61,8 @@ def main(argv=None):
         for planner, r, seconds in (("voxel", vox.route, vox_s), ("mesh", route, mesh_s)):
             row = {"scene": name, "planner": planner, "plan_s": seconds}
             if r is not None:
-                strict, thesis = measures(r, scene, "strict"), measures(r, scene, "thesis")
-                row.update({"shots": strict["shots"], "path_m": r.path_length, "coverage_path_m": coverage_length(r),
+                strict, thesis = (evaluate(r, scene, rule=rule).metrics for rule in ("strict", "thesis"))
+                row.update({"shots": strict["shots"], "path_m": r.path_length, "coverage_path_m": r.coverage_length,
                             "cover_thesis_pct": thesis["coverage_pct"], "cover_strict_pct": strict["coverage_pct"],
                             "p_outliers_strict": strict["p_outliers"], "min_clearance_m": strict["min_clearance_m"],
                             "safe": strict["safe"], "unsafe_segments": strict["unsafe_segment_count"],
@@ -81,9 +70,7 @@ def main(argv=None):
             totals.append(row)
         totals[-1]["voxel_over_mesh_time"] = vox_s / mesh_s
         if name in THESIS_3D:
-            shots = sum(p[0] for p in THESIS_3D[name]["paths"].values())
-            length = sum(p[1] for p in THESIS_3D[name]["paths"].values())
-            seconds = sum(p[2] for p in THESIS_3D[name]["paths"].values())
+            shots, length, seconds = thesis_totals(name)
             totals.append({"scene": name, "planner": f"thesis (Table {THESIS_3D[name]['table']})", "shots": shots,
                            "coverage_path_m": length, "plan_s": seconds})
         print(f"  {name} done", flush=True)

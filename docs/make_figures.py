@@ -44,7 +44,7 @@ def screenshot(html: Path, png: Path) -> None:
 
 def main():
     camera = get_camera("thesis80")
-    gsd = 7.0 * camera.pixel_pitch_mm / camera.focal_length_mm
+    gsd = float(camera.gsd_at(7.0))
     for name, (target, obstacles) in SCENES.items():
         scene = load_scene(ROOT / "meshes" / target, [ROOT / "meshes" / o for o in obstacles])
         route = plan(scene, camera, gsd=gsd, security=3.0, start=[0.0, 50.0, 3.0])

@@ -40,7 +40,7 @@ def thesis_camera():
 
 def gsd_for(camera, d_opt: float) -> float:
     """The GSD whose optimal distance is ``d_opt`` for this camera."""
-    return d_opt * camera.pixel_pitch_mm / camera.focal_length_mm
+    return float(camera.gsd_at(d_opt))
 
 
 @pytest.fixture

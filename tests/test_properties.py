@@ -51,7 +51,7 @@ def settings_(draw):
     camera = PRESETS[draw(st.sampled_from(sorted(PRESETS)))]
     security = draw(st.floats(1.0, 4.0))
     d_opt = max(security * draw(st.floats(1.6, 4.0)), 3.0)
-    return {"camera": camera, "security": security, "gsd": d_opt * camera.pixel_pitch_mm / camera.focal_length_mm,
+    return {"camera": camera, "security": security, "gsd": float(camera.gsd_at(d_opt)),
             "min_altitude": draw(st.floats(0.5, security)), "d_opt": d_opt}
 
 

@@ -82,7 +82,7 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
         samples = sample_surface(scene, spacing)
     classes = route.params.get("surface_classes") if classes is None else classes
     if classes:
-        samples = samples.subset(np.isin(samples.kind, [CLASS_NAMES.index(c) for c in classes]))
+        samples = samples.of_classes(classes)
     shots = route.shots
     reach_range = route.d_opt if rule == "strict" else 4.0 * scene.extent + route.d_opt
     pairs = imaging_pairs(route.positions[shots], route.heading_deg[shots], route.pitch_deg[shots],

@@ -21,7 +21,7 @@ from .progress import Progress
 from .reachability import ViewLimits, reachability
 from .route import Route
 from .selection import coverage_state, select_views
-from .surface import CLASS_NAMES, default_spacing, sample_surface
+from .surface import default_spacing, sample_surface
 from .tour import solve_tour
 from .visibility import imaging_pairs, view_rays, visibility_matrix, widest_pair_angle
 
@@ -171,10 +171,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     with progress.stage("surface samples"):
         samples = sample_surface(scene, spacing)
         if surface_classes:
-            unknown = set(surface_classes) - set(CLASS_NAMES)
-            if unknown:
-                raise ParameterError(f"unknown surface class {', '.join(sorted(unknown))}; classes: {', '.join(CLASS_NAMES)}")
-            samples = samples.subset(np.isin(samples.kind, [CLASS_NAMES.index(c) for c in surface_classes]))
+            samples = samples.of_classes(surface_classes)
             if len(samples) == 0:
                 raise PlanningError(f"the target has no {' or '.join(surface_classes)} surface")
     with progress.stage("reachability"):

@@ -19,6 +19,18 @@ LEGS = ("initial", "coverage", "final")
 DEFAULT_PARAMS = {"min_views": 2, "min_triangulation_deg": 5.0, "max_incidence_deg": 70.0}
 
 
+def polyline_length(points) -> float:
+    """Length of the polyline through ``points`` (n x 3)."""
+    p = np.asarray(points, dtype=float).reshape(-1, 3)
+    return float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()) if len(p) > 1 else 0.0
+
+
+def coverage_length(points, shot) -> float:
+    """Length from the first shot to the last (the thesis's tables count only this)."""
+    rows = np.flatnonzero(shot)
+    return polyline_length(np.asarray(points)[rows[0]:rows[-1] + 1]) if len(rows) else 0.0
+
+
 @dataclass
 class Route:
     """Waypoints (local metres), the camera and parameters, and what the plan left uncovered."""
@@ -55,7 +67,12 @@ class Route:
 
     @property
     def path_length(self) -> float:
-        return float(np.linalg.norm(np.diff(self.positions, axis=0), axis=1).sum())
+        return polyline_length(self.positions)
+
+    @property
+    def coverage_length(self) -> float:
+        """Length from the first shot to the last (the thesis's tables count only this)."""
+        return coverage_length(self.positions, self.shot)
 
     @property
     def gsd(self) -> float:

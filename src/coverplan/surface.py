@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .camera import check_positive
-from .errors import PlanningError
+from .errors import ParameterError, PlanningError
 
 FACADE, ROOF, TERRACE, OPPOSED_TERRACE = 0, 1, 2, 3
 CLASS_NAMES = ("facade", "roof", "terrace", "opposed_terrace")
@@ -45,6 +45,13 @@ class SurfaceSamples:
         return SurfaceSamples(self.points[mask], self.normals[mask], self.area[mask],
                               self.part[mask], self.kind[mask], self.spacing, dict(self.left_out),
                               self.flipped_normals)
+
+    def of_classes(self, names) -> "SurfaceSamples":
+        """The samples of some classes (facade, roof, terrace, opposed_terrace)."""
+        unknown = set(names) - set(CLASS_NAMES)
+        if unknown:
+            raise ParameterError(f"unknown surface class {', '.join(sorted(unknown))}; classes: {', '.join(CLASS_NAMES)}")
+        return self.subset(np.isin(self.kind, [CLASS_NAMES.index(c) for c in names]))
 
     def class_areas(self) -> dict[str, float]:
         return {name: float(self.area[self.kind == k].sum()) for k, name in enumerate(CLASS_NAMES)}

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage
 
-from ..route import Route
+from ..route import Route, coverage_length, polyline_length
 from .grid import FREE, OBSTACLE, TARGET, SceneGrid, grid_from_scene
 from .path import cell_path, cost_grid, grid_graph
 from .view import view_plan
@@ -42,13 +42,12 @@ class Flight:
 
     @property
     def length(self) -> float:
-        return _polyline_length(self.positions)
+        return polyline_length(self.positions)
 
     @property
     def coverage_length(self) -> float:
         """Length from the first shot to the last (the thesis's tables count only this)."""
-        rows = np.flatnonzero(self.shot)
-        return _polyline_length(self.positions[rows[0]:rows[-1] + 1]) if len(rows) else 0.0
+        return coverage_length(self.positions, self.shot)
 
     def add(self, position, shot=False, heading=0.0, pitch=0.0):
         self.positions.append(np.asarray(position, dtype=float))
@@ -67,11 +66,6 @@ class VoxelPlan:
     @property
     def failures(self) -> list[str]:
         return [f"{f.name}: {f.failure}" for f in self.flights if f.failure]
-
-
-def _polyline_length(points) -> float:
-    p = np.asarray(points, dtype=float).reshape(-1, 3)
-    return float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()) if len(p) > 1 else 0.0
 
 
 def _heading(yaw: float) -> float:
