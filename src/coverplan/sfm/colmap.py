@@ -1,0 +1,174 @@
+"""Structure-from-Motion on simulated photos with pycolmap (CPU), and its alignment.
+
+Known intrinsics (one PINHOLE camera, never refined), SIFT features, exhaustive matching for
+small flights or each photo's nearest cameras for large ones, incremental mapping. The
+largest model is aligned to the true camera centres by a similarity (robust LO-RANSAC).
+"""
+
+from __future__ import annotations
+
+import shutil
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import ParameterError
+
+INSTALL_HINT = "simulate needs pycolmap; install it with: pip install 'coverplan[sfm]'"
+
+
+def require_pycolmap():
+    """The pycolmap module, or a one-line error saying how to get it."""
+    try:
+        import pycolmap
+    except ImportError:
+        raise ParameterError(INSTALL_HINT) from None
+    return pycolmap
+
+
+@dataclass
+class SfmModel:
+    """One SfM model, aligned to the scene's local frame (when it could be)."""
+
+    image_names: list[str]  # registered photos
+    points: np.ndarray  # (n, 3) 3D points in the local frame
+    centres: np.ndarray  # (len(image_names), 3) camera centres in the local frame
+    reprojection_error_px: float
+    mean_track_length: float
+    aligned: bool
+
+
+@dataclass
+class SfmResult:
+    models: list[SfmModel]  # largest first
+    verified_pairs: int
+    matched_pairs: int
+    seconds: dict = field(default_factory=dict)
+
+    @property
+    def largest(self) -> SfmModel | None:
+        return self.models[0] if self.models else None
+
+
+def neighbour_pairs(centres: np.ndarray, view_dirs: np.ndarray, k: int) -> list[tuple[int, int]]:
+    """Pairs of photos worth matching in a large flight: each photo's ``k`` nearest cameras,
+    ranked by distance plus a penalty for looking the other way."""
+    from scipy.spatial import cKDTree
+
+    n = len(centres)
+    k = min(k, n - 1)
+    tree = cKDTree(centres)
+    _d, idx = tree.query(centres, k=min(n, 3 * k + 1))
+    pairs = set()
+    for i in range(n):
+        cand = idx[i][idx[i] != i]
+        cost = np.linalg.norm(centres[cand] - centres[i], axis=1) * (2.0 - view_dirs[cand] @ view_dirs[i])
+        for j in cand[np.argsort(cost)[:k]]:
+            pairs.add((min(i, int(j)), max(i, int(j))))
+    return sorted(pairs)
+
+
+def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, view_dirs: np.ndarray,
+            work_dir: Path, *, exhaustive_limit: int = 80, neighbours: int = 20, max_features: int = 4096, first_octave: int = 0,
+            threads: int = -1,
+            seed: int = 0, progress=None) -> SfmResult:
+    """Features, matching and incremental mapping over the photos ``names`` in ``image_dir``."""
+    import time
+
+    pycolmap = require_pycolmap()
+    pycolmap.logging.minloglevel = 2  # COLMAP's per-image log drowns the progress bars
+    work_dir = Path(work_dir)
+    if work_dir.exists():
+        shutil.rmtree(work_dir)
+    work_dir.mkdir(parents=True)
+    database = work_dir / "database.db"
+    seconds = {}
+
+    t = time.perf_counter()
+    reader = pycolmap.ImageReaderOptions()
+    reader.camera_model = "PINHOLE"
+    reader.camera_params = f"{photo.fx},{photo.fy},{photo.cx},{photo.cy}"
+    extraction = pycolmap.FeatureExtractionOptions()
+    extraction.num_threads = threads
+    extraction.max_image_size = max(photo.width, photo.height)
+    extraction.sift.max_num_features = max_features
+    extraction.sift.first_octave = first_octave
+    with _stage(progress, "SfM features"):
+        pycolmap.extract_features(database, image_dir, image_names=names, camera_mode=pycolmap.CameraMode.SINGLE,
+                                  reader_options=reader, extraction_options=extraction,
+                                  device=pycolmap.Device.cpu)
+    seconds["features"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    matching = pycolmap.FeatureMatchingOptions()
+    matching.num_threads = threads
+    with _stage(progress, "SfM matching"):
+        if len(names) <= exhaustive_limit:
+            pycolmap.match_exhaustive(database, matching_options=matching, device=pycolmap.Device.cpu)
+        else:
+            pairs_file = work_dir / "pairs.txt"
+            pairs = neighbour_pairs(true_centres, view_dirs, neighbours)
+            pairs_file.write_text("".join(f"{names[i]} {names[j]}\n" for i, j in pairs))
+            pairing = pycolmap.ImportedPairingOptions()
+            pairing.match_list_path = pairs_file
+            pycolmap.match_image_pairs(database, matching_options=matching, pairing_options=pairing,
+                                       device=pycolmap.Device.cpu)
+    seconds["matching"] = time.perf_counter() - t
+    db = pycolmap.Database.open(database) if hasattr(pycolmap.Database, "open") else pycolmap.Database(database)
+    matched, verified = int(db.num_matched_image_pairs()), int(db.num_verified_image_pairs())
+    db.close()
+
+    t = time.perf_counter()
+    options = pycolmap.IncrementalPipelineOptions()
+    options.ba_refine_focal_length = False
+    options.ba_refine_principal_point = False
+    options.ba_refine_extra_params = False
+    options.num_threads = threads
+    options.random_seed = seed
+    options.multiple_models = True
+    options.min_model_size = 3
+    sparse = work_dir / "sparse"
+    sparse.mkdir()
+    with _stage(progress, "SfM mapping", total=len(names)) as tick:
+        recs = pycolmap.incremental_mapping(database, image_dir, sparse, options=options,
+                                            next_image_callback=lambda: tick(1))
+    seconds["mapping"] = time.perf_counter() - t
+
+    index = {name: i for i, name in enumerate(names)}
+    models = [_aligned(pycolmap, rec, index, true_centres) for rec in recs.values()]
+    models.sort(key=lambda m: -len(m.image_names))
+    return SfmResult(models, verified, matched, seconds)
+
+
+def _aligned(pycolmap, rec, index: dict, true_centres: np.ndarray) -> SfmModel:
+    images = [rec.images[i] for i in rec.reg_image_ids()]
+    names = [im.name for im in images]
+    centres = np.array([im.projection_center() for im in images]).reshape(-1, 3)
+    points = np.array([p.xyz for p in rec.points3D.values()]).reshape(-1, 3)
+    error = float(rec.compute_mean_reprojection_error()) if rec.num_points3D() else float("nan")
+    track = float(rec.compute_mean_track_length()) if rec.num_points3D() else 0.0
+    target = true_centres[[index[n] for n in names]] if names else np.zeros((0, 3))
+    sim = None
+    if len(names) >= 3:
+        ransac = pycolmap.RANSACOptions()
+        ransac.max_error = max(0.05, 0.002 * float(np.ptp(target, axis=0).max()))
+        sim = pycolmap.estimate_sim3d_robust(centres, target, ransac)
+        sim = sim["tgt_from_src"] if isinstance(sim, dict) else sim
+    if sim is None:
+        return SfmModel(names, points, centres, error, track, aligned=False)
+    m = np.asarray(sim.matrix())
+    return SfmModel(names, points @ m[:, :3].T + m[:, 3], centres @ m[:, :3].T + m[:, 3], error, track, aligned=True)
+
+
+class _stage:
+    """A progress stage if a Progress was given, else nothing."""
+
+    def __init__(self, progress, name, total=None):
+        self.cm = progress.stage(name, total=total, unit="img") if progress is not None else None
+
+    def __enter__(self):
+        return self.cm.__enter__() if self.cm is not None else (lambda _n=1: None)
+
+    def __exit__(self, *exc):
+        return self.cm.__exit__(*exc) if self.cm is not None else False

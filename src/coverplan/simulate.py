@@ -1,0 +1,184 @@
+"""simulate(): render a route's photos on the scene, run SfM on them, and say what came back.
+
+The judge of a plan is a reconstruction (DESIGN.md): photos registered in the largest model,
+number of models, 3D points, reprojection and camera-centre errors, and the share of the
+target surface with a 3D point within 0.1 m and 0.2 m, overall and per surface class.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .orientation import view_direction
+from .progress import Progress
+from .sfm.colmap import require_pycolmap, run_sfm
+from .sfm.judge import judge_samples, reconstructed_surface
+from .sfm.render import PhotoCamera, PhotoRenderer
+
+DEFAULT_WIDTH_PX = 1024
+JUDGE_SPACING_M = 0.1
+# Reconstructable (DESIGN.md): one model holding >= 98 % of the photos, >= 95 % of the
+# surface within 0.2 m of a 3D point and >= 90 % in every class.
+REGISTERED_MIN = 0.98
+SURFACE_MIN = 95.0
+CLASS_MIN = 90.0
+
+
+@dataclass
+class Simulation:
+    """What SfM made of a route's photos."""
+
+    photos: int
+    registered: int  # in the largest model
+    registered_any: int  # in any model
+    models: int
+    points: int  # 3D points of the largest model
+    reprojection_error_px: float
+    centre_error_m: dict  # median / max camera-centre error of the largest model after alignment
+    surface: dict  # reconstructed_surface() of the largest model, without per-sample arrays
+    photo_width_px: int
+    seconds: dict
+    shot_registered: np.ndarray = field(repr=False)  # per shot (route order): in the largest model
+    sample_points: np.ndarray = field(repr=False)  # judge samples
+    sample_distance: np.ndarray = field(repr=False)  # nearest 3D point per judge sample
+    model_points: np.ndarray = field(repr=False)
+
+    @property
+    def reconstructed_pct(self) -> float:
+        return self.surface["by_radius"]["0.2"]["pct"]
+
+    @property
+    def reconstructable(self) -> bool:
+        by = self.surface["by_radius"]["0.2"]
+        return (self.registered >= REGISTERED_MIN * self.photos and by["pct"] >= SURFACE_MIN
+                and all(v >= CLASS_MIN for c, v in by["by_class_pct"].items()
+                        if self.surface["class_area_m2"].get(c, 0) > 0))
+
+    def to_dict(self) -> dict:
+        return {"photos": self.photos, "registered": self.registered, "registered_any": self.registered_any,
+                "models": self.models, "points": self.points,
+                "reprojection_error_px": self.reprojection_error_px, "centre_error_m": self.centre_error_m,
+                "surface": self.surface, "photo_width_px": self.photo_width_px, "seconds": self.seconds,
+                "reconstructable": self.reconstructable,
+                "shot_registered": self.shot_registered.tolist()}
+
+    def table(self) -> str:
+        by02, by01 = self.surface["by_radius"]["0.2"], self.surface["by_radius"]["0.1"]
+        rows = [("photos", f"{self.photos}"),
+                ("registered (largest model)", f"{self.registered} ({100.0 * self.registered / max(self.photos, 1):.1f} %)"),
+                ("registered in any model", f"{self.registered_any}"),
+                ("models", f"{self.models}"),
+                ("3D points", f"{self.points:,}"),
+                ("reprojection error", f"{self.reprojection_error_px:.2f} px"),
+                ("camera centre error", f"median {self.centre_error_m['median']:.3f} m, max {self.centre_error_m['max']:.3f} m"),
+                ("surface reconstructed @0.1 m", f"{by01['pct']:.1f} %"),
+                ("surface reconstructed @0.2 m", f"{by02['pct']:.1f} %")]
+        rows += [(f"  {c}", f"{v:.1f} % of {self.surface['class_area_m2'][c]:.0f} m2")
+                 for c, v in by02["by_class_pct"].items()]
+        rows.append(("reconstructable", "yes" if self.reconstructable else "no (DESIGN: >= 98 % registered, "
+                                                                          ">= 95 % surface, >= 90 % per class)"))
+        w = max(len(r[0]) for r in rows)
+        return "\n".join(f"{k:<{w}}  {v}" for k, v in rows)
+
+    def reconstructed_at(self, points, radius: float = 0.2) -> np.ndarray:
+        """Per point: is a 3D point of the largest model within ``radius``?"""
+        if len(self.model_points) == 0:
+            return np.zeros(len(points), dtype=bool)
+        from scipy.spatial import cKDTree
+        dist, _ = cKDTree(self.model_points).query(np.asarray(points, dtype=float), distance_upper_bound=radius)
+        return dist <= radius
+
+    def save(self, path) -> Path:
+        """Write the summary as JSON and the aligned 3D points beside it (``*.points.ply``)."""
+        import trimesh
+
+        path = Path(path)
+        path.write_text(json.dumps(self.to_dict(), indent=1))
+        if len(self.model_points):
+            trimesh.PointCloud(self.model_points).export(_points_path(path))
+        return path
+
+    @classmethod
+    def load(cls, path) -> "Simulation":
+        """A saved simulation (for reports): the summary and the aligned 3D points."""
+        import trimesh
+
+        from .errors import InputFileError
+        path = Path(path)
+        try:
+            d = json.loads(path.read_text())
+            points_file = _points_path(path)
+            pts = np.asarray(trimesh.load(points_file).vertices) if points_file.exists() else np.zeros((0, 3))
+            return cls(d["photos"], d["registered"], d["registered_any"], d["models"], d["points"],
+                       d["reprojection_error_px"], d["centre_error_m"], d["surface"], d["photo_width_px"],
+                       d["seconds"], np.array(d["shot_registered"], dtype=bool), np.zeros((0, 3)), np.zeros(0), pts)
+        except FileNotFoundError:
+            raise InputFileError(str(path), "no such file") from None
+        except (ValueError, KeyError, TypeError) as exc:
+            raise InputFileError(str(path), f"is not a coverplan simulation ({exc})") from None
+
+
+def _points_path(path: Path) -> Path:
+    return path.with_name(path.stem + ".points.ply")
+
+
+def simulate(route, scene, out_dir, *, width: int = DEFAULT_WIDTH_PX, threads: int = -1, seed: int = 0,
+             exhaustive_limit: int = 80, judge_spacing: float = JUDGE_SPACING_M,
+             progress: Progress | None = None) -> Simulation:
+    """Render the route's photos into ``out_dir/images``, reconstruct them, judge the result."""
+    require_pycolmap()
+    progress = progress or Progress()
+    out_dir = Path(out_dir)
+    images = out_dir / "images"
+    images.mkdir(parents=True, exist_ok=True)
+    shots = route.shots
+    if len(shots) < 2:
+        from .errors import ParameterError
+        raise ParameterError(f"the route has {len(shots)} photo(s); SfM needs at least 2")
+    photo = PhotoCamera.of(route.camera, width)
+    d_opt = route.d_opt
+    # Finest texture about 2.5 px wide at 80 % of d_opt (the usual standoff): visible, not aliased.
+    renderer = PhotoRenderer(scene, photo, finest_texture_m=2.5 * photo.gsd_at(0.8 * d_opt),
+                             ground_reach=4.0 * d_opt + route.security, seed=seed)
+    names = [f"shot_{k:04d}.png" for k in range(len(shots))]
+    t = time.perf_counter()
+    from PIL import Image
+    with progress.stage("rendering photos", total=len(shots), unit="img") as tick:
+        for name, i in zip(names, shots):
+            Image.fromarray(renderer.render(route.positions[i], route.heading_deg[i], route.pitch_deg[i])).save(images / name)
+            tick(1)
+    seconds = {"render": time.perf_counter() - t}
+    centres = route.positions[shots]
+    dirs = view_direction(route.heading_deg[shots], route.pitch_deg[shots])
+    sfm = run_sfm(images, names, photo, centres, dirs, out_dir / "colmap", exhaustive_limit=exhaustive_limit,
+                  threads=threads, seed=seed, progress=progress)
+    seconds.update(sfm.seconds)
+    best = sfm.largest
+    t = time.perf_counter()
+    with progress.stage("judging the reconstruction"):
+        samples = judge_samples(scene, judge_spacing)
+        pts = best.points if best is not None and best.aligned else np.zeros((0, 3))
+        surface = reconstructed_surface(samples, pts)
+    seconds["judge"] = time.perf_counter() - t
+    registered = set(best.image_names) if best is not None else set()
+    shot_registered = np.array([n in registered for n in names])
+    if best is not None and best.aligned and len(best.image_names):
+        err = np.linalg.norm(best.centres - centres[[names.index(n) for n in best.image_names]], axis=1)
+        centre_error = {"median": float(np.median(err)), "max": float(err.max())}
+    else:
+        centre_error = {"median": float("nan"), "max": float("nan")}
+    distance = surface.pop("nearest_point_m")
+    surface.pop("classes")
+    return Simulation(
+        photos=len(shots), registered=len(registered),
+        registered_any=len(set().union(*[m.image_names for m in sfm.models])) if sfm.models else 0,
+        models=len(sfm.models), points=int(len(best.points)) if best is not None else 0,
+        reprojection_error_px=best.reprojection_error_px if best is not None else float("nan"),
+        centre_error_m=centre_error, surface=surface, photo_width_px=photo.width, seconds=seconds,
+        shot_registered=shot_registered, sample_points=samples.points, sample_distance=distance,
+        model_points=pts)
