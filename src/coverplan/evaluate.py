@@ -14,7 +14,8 @@ import numpy as np
 from .reachability import ViewLimits, reachability
 from .route import Route
 from .surface import CLASS_NAMES, SurfaceSamples, default_spacing, sample_surface
-from .visibility import imaging_pairs, view_rays, widest_pair_angle
+from .reconstructability import MatchRule, graph_summary, shot_links
+from .visibility import has_pair_between, imaging_pairs, view_rays, widest_pair_angle
 
 ORIENTATION_TOLERANCE_DEG = 0.5
 
@@ -92,10 +93,12 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
     cam, pt, rng = pairs
     n = len(samples)
     views = np.bincount(pt, minlength=n)
-    widest = widest_pair_angle(pt, view_rays(cam, pt, route.positions[shots], samples.points), n)
+    rays = view_rays(cam, pt, route.positions[shots], samples.points)
+    widest = widest_pair_angle(pt, rays, n)
     min_views = int(route.param("min_views"))
     min_tri = float(route.param("min_triangulation_deg"))
-    covered = (views >= min_views) & (widest >= min_tri)
+    max_pair = route.params.get("max_pair_deg")
+    covered = (views >= min_views) & has_pair_between(pt, rays, n, min_tri, max_pair)
 
     # Safety along the whole polyline: exact FCL distances per segment, inside tests per waypoint.
     positions = route.positions
@@ -119,7 +122,30 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
                     seg_d, seg_mesh, inside)
     ev.metrics = _metrics(ev, scene, limits)
     ev.metrics["rule"] = rule
+    ev.metrics["shot_graph"] = shot_graph(route, samples, pairs)
     return ev
+
+
+def match_rule(route: Route) -> MatchRule:
+    """The rule for linking photos that a route declares (the defaults when it declares none)."""
+    d = MatchRule()
+    return MatchRule(float(route.params.get("max_pair_deg") or d.max_pair_deg),
+                     float(route.params.get("min_overlap") or d.min_overlap),
+                     int(route.params.get("min_neighbours") or d.min_neighbours))
+
+
+def shot_graph(route: Route, samples: SurfaceSamples, pairs) -> dict:
+    """Which photos SfM should match (reconstructability.py), measured on these samples."""
+    import scipy.sparse as sp
+
+    cam, pt, _ = pairs
+    n = len(route.shots)
+    vis = sp.csr_matrix((np.ones(len(cam)), (cam, pt)), shape=(n, len(samples)))
+    rule = match_rule(route)
+    summary = graph_summary(shot_links(vis, route.positions[route.shots], samples.points, rule), rule)
+    summary.update({"max_pair_deg": rule.max_pair_deg, "min_overlap": rule.min_overlap,
+                    "min_neighbours": rule.min_neighbours})
+    return summary
 
 
 def _stats(values) -> dict:
@@ -252,5 +278,10 @@ def format_metrics(m: dict) -> str:
         ("path m per m2", f"{m['path_m_per_m2']:.4f}"),
         ("samples", f"{m['samples']} at {m['sample_spacing_m']:.2f} m spacing"),
     ]
+    g = m.get("shot_graph")
+    if g:
+        rows += [("matchable photo sets", f"{g['components']} (largest {g['largest_component']} of {g['shots']} photos)"),
+                 ("photos short of neighbours", f"{g['shots_short_of_neighbours']} (fewer than {g['min_neighbours']} "
+                                                f"sharing {100 * g['min_overlap']:.0f} % within {g['max_pair_deg']:g} deg)")]
     width = max(len(r[0]) for r in rows)
     return "\n".join(f"{name.ljust(width)}  {value}" for name, value in rows)

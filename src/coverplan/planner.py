@@ -18,12 +18,13 @@ from .orientation import heading_pitch
 from .pathing import (build_flight_graph, closure_hops, lattice_spacing, leg, shortcut,
                       shot_distances)
 from .progress import Progress
+from .reconstructability import MatchRule, connect_shots
 from .reachability import ViewLimits, reachability
 from .route import Route
 from .selection import coverage_state, select_views
 from .surface import default_spacing, sample_surface
 from .tour import solve_tour
-from .visibility import imaging_pairs, view_rays, visibility_matrix, widest_pair_angle
+from .visibility import has_pair_between, imaging_pairs, view_rays, visibility_matrix, widest_pair_angle
 
 # The planner holds itself to a slightly stricter rule than the evaluator, so coverage
 # still holds between its samples: 2 % off the frustum, range and incidence.
@@ -138,8 +139,11 @@ def check_start(scene, start, limits: ViewLimits, notes: list) -> np.ndarray:
     return start
 
 
-def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_views: int = 2,
-         min_triangulation_deg: float = 5.0, max_incidence_deg: float = 70.0,
+RULES = ("sfm", "thesis")
+
+
+def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_views: int | None = None,
+         min_triangulation_deg: float = 5.0, rule: str = "sfm", match: MatchRule | None = None, max_incidence_deg: float = 70.0,
          min_altitude: float | None = None, spacing: float | None = None,
          gimbal_pitch_range_deg=(-90.0, 30.0), cost_weight: float = 1.0,
          lattice_spacing_m: float | None = None, lp_time_limit: float = 20.0,
@@ -147,11 +151,23 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
          progress: Progress | None = None) -> Route:
     """Plan one flight from ``start`` over shots covering the target and back.
 
+    ``rule`` "sfm" (default) plans for a reconstruction (reconstructability.py): ``min_views``
+    3, a pair per sample that both triangulates and matches, and shots linked into one
+    matchable set; "thesis" is the thesis's rule (``min_views`` 2, any pair wide enough).
     Raises ParameterError / PlanningError (with a one-line message) on impossible settings;
     surface no safe position can image is planned around and listed in ``route.uncovered``.
     """
     t0 = time.perf_counter()
     progress = progress or Progress()
+    if rule not in RULES:
+        raise ParameterError(f"rule must be one of {', '.join(RULES)}, got {rule!r}")
+    if min_views is None:
+        min_views = 3 if rule == "sfm" else 2
+    match = (match or MatchRule()) if rule == "sfm" else None
+    max_pair = match.max_pair_deg if match else None
+    if match and not float(min_triangulation_deg) < match.max_pair_deg:
+        raise ParameterError(f"min triangulation angle {min_triangulation_deg:g} deg must be below the widest "
+                             f"matchable pair {match.max_pair_deg:g} deg")
     gsd, security, d_opt = check_settings(camera, gsd, security, min_views, min_triangulation_deg,
                                           max_incidence_deg, min_altitude)
     min_views = int(min_views)
@@ -190,7 +206,8 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     with progress.stage("visibility matrix", total=len(cands), unit="cam") as update:
         pairs = pairs_for(cands, update)
         # Samples the structured candidates leave short get candidates from their own probes.
-        needy = _short_samples(pairs, cands.positions, samples, min_views, min_triangulation_deg) & reach.reachable
+        needy = _short_samples(pairs, cands.positions, samples, min_views, min_triangulation_deg,
+                               max_pair) & reach.reachable
         extra = keep_safe(scene, from_probes(scene, samples, np.flatnonzero(needy), limits), limits, margin)
         if len(extra):
             # Probe shots serve samples only grazing views reach: judge them without the margin.
@@ -204,13 +221,19 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
 
     with progress.stage("view selection", unit="shot") as update:
         selection = select_views(vis, rays, min_views, min_triangulation_deg, lp_time_limit=lp_time_limit,
-                                 progress=update)
+                                 progress=update, max_pair_deg=max_pair)
+    if match is not None and len(selection.chosen):
+        with progress.stage("linking shots for SfM"):
+            selection.chosen = connect_shots(vis, cands.positions, samples.points, selection.chosen, match)
+            selection.views, selection.satisfied = coverage_state(vis, rays, selection.chosen, min_views,
+                                                                  min_triangulation_deg, max_pair)
     chosen = selection.chosen
     if len(chosen) == 0:
         raise PlanningError("no safe viewpoint can image any part of the target: "
                             + (reach.reason[0] if len(reach.reason) and reach.reason[0] else
                                "check the security distance and GSD"))
-    uncovered = _uncovered(samples, selection, reach, pairs, cands.positions, min_views, min_triangulation_deg)
+    uncovered = _uncovered(samples, selection, reach, pairs, cands.positions, min_views, min_triangulation_deg,
+                           max_pair)
 
     shots = cands.subset(chosen)
     with progress.stage("lattice and Dijkstra"):
@@ -230,10 +253,10 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
         notes.append(f"{lost} shots have no safe path from the start and were dropped")
         chosen = chosen[flyable[1:]]
         selection.views, selection.satisfied = coverage_state(vis, rays, chosen, min_views,
-                                                              min_triangulation_deg)
+                                                              min_triangulation_deg, max_pair)
         selection.chosen = chosen
         uncovered = _uncovered(samples, selection, reach, pairs, cands.positions, min_views,
-                               min_triangulation_deg, lost_path=True)
+                               min_triangulation_deg, max_pair, lost_path=True)
         shots = cands.subset(chosen)
         specials = np.vstack([start, shots.positions])
         fg = build_flight_graph(scene, limits, specials, margin=margin, spacing=h, cost_weight=cost_weight)
@@ -246,6 +269,10 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
                    min_triangulation_deg, max_incidence_deg, min_alt, spacing, uncovered)
     if surface_classes:
         route.params["surface_classes"] = list(surface_classes)
+    route.params["rule"] = rule
+    if match is not None:
+        route.params.update({"max_pair_deg": match.max_pair_deg, "min_overlap": match.min_overlap,
+                             "min_neighbours": match.min_neighbours})
     _final_check(route, scene, limits)
 
     covered_area = float(samples.area[selection.satisfied & reach.reachable].sum())
@@ -272,11 +299,15 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     return route
 
 
-def _short_samples(pairs, positions, samples, min_views, min_tri) -> np.ndarray:
+def _short_samples(pairs, positions, samples, min_views, min_tri, max_pair=None) -> np.ndarray:
     cam, pt, _ = pairs
     views = np.bincount(pt, minlength=len(samples))
-    widest = widest_pair_angle(pt, view_rays(cam, pt, positions, samples.points), len(samples))
-    return (views < min_views + 1) | (widest < min_tri * 2)
+    rays = view_rays(cam, pt, positions, samples.points)
+    widest = widest_pair_angle(pt, rays, len(samples))
+    short = (views < min_views + 1) | (widest < min_tri * 2)
+    if max_pair is not None:
+        short |= ~has_pair_between(pt, rays, len(samples), min_tri, max_pair)
+    return short
 
 
 def _rays_in_csr_order(vis, pairs, positions, points) -> np.ndarray:
@@ -287,11 +318,13 @@ def _rays_in_csr_order(vis, pairs, positions, points) -> np.ndarray:
     return view_rays(cam[order], pt[order], positions, points)
 
 
-def _uncovered(samples, selection, reach, pairs, positions, min_views, min_tri,
+def _uncovered(samples, selection, reach, pairs, positions, min_views, min_tri, max_pair=None,
                lost_path: bool = False) -> list[dict]:
     cam, pt, _ = pairs
     possible = np.bincount(pt, minlength=len(samples))
-    widest = widest_pair_angle(pt, view_rays(cam, pt, positions, samples.points), len(samples))
+    rays = view_rays(cam, pt, positions, samples.points)
+    widest = widest_pair_angle(pt, rays, len(samples))
+    matchable = has_pair_between(pt, rays, len(samples), min_tri, max_pair)
     out = []
     for k in np.flatnonzero(~selection.satisfied):
         if not reach.reachable[k]:
@@ -300,6 +333,9 @@ def _uncovered(samples, selection, reach, pairs, positions, min_views, min_tri,
             reason = f"only {possible[k]} safe viewpoint(s) found that image it (needs {min_views})"
         elif widest[k] < min_tri:
             reason = f"its safe views are all within {widest[k]:.1f} deg of each other (needs {min_tri:g})"
+        elif not matchable[k]:
+            reason = (f"no two of its safe views are between {min_tri:g} and {max_pair:g} deg apart "
+                      "(a pair that triangulates and still matches)")
         elif lost_path:
             reason = "its viewpoints have no safe path from the start point"
         else:

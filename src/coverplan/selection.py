@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from .visibility import widest_pair_angle
+from .visibility import has_pair_between
 
 _STORED = 6  # view rays remembered per sample for the pair test
 _SEED = 0.7  # LP values from which a candidate is taken before the greedy starts
@@ -33,11 +33,12 @@ class Selection:
 
 
 def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_tri_deg: float,
-                 lp_time_limit: float = 20.0, progress=None) -> Selection:
+                 lp_time_limit: float = 20.0, progress=None, max_pair_deg: float | None = None) -> Selection:
     """Pick candidates (rows of ``vis``) covering the samples (columns).
 
     ``rays`` holds, in the order of ``vis.data``, the unit vector from sample to camera.
-    ``lp_time_limit`` <= 0 skips the LP (plain greedy).
+    ``lp_time_limit`` <= 0 skips the LP (plain greedy). With ``max_pair_deg`` the pair that
+    covers a sample must also be at most that wide (views SfM can match), not only wide enough.
     """
     vis = vis.tocsr()
     vis.sort_indices()
@@ -50,6 +51,10 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_tri_d
             x = x_lp
     indptr, indices = vis.indptr, vis.indices
     cos_tri = np.cos(np.radians(min_tri_deg))
+    cos_match = -1.0 if max_pair_deg is None else np.cos(np.radians(max_pair_deg))
+
+    def in_window(dots):
+        return (dots <= cos_tri) & (dots >= cos_match)  # NaN compares False
     count = np.zeros(n_samp, dtype=np.int64)
     paired = np.zeros(n_samp, dtype=bool)
     stored = np.full((n_samp, _STORED, 3), np.nan)
@@ -59,7 +64,7 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_tri_d
         pairs = np.zeros(len(s), dtype=bool)
         if open_pair.any():
             dots = np.einsum("nkd,nd->nk", stored[s[open_pair]], r[open_pair])
-            pairs[open_pair] = (dots <= cos_tri).any(axis=1)  # NaN compares False
+            pairs[open_pair] = in_window(dots).any(axis=1)
         return pairs
 
     def gain(j: int) -> float:
@@ -82,7 +87,7 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_tri_d
             for lo in range(0, int(open_pair.sum()), 500_000):
                 k = np.flatnonzero(open_pair)[lo:lo + 500_000]
                 dots = np.einsum("nkd,nd->nk", stored[s[k]], rays[entries[k]])
-                value[k] += (dots <= cos_tri).any(axis=1)
+                value[k] += in_window(dots).any(axis=1)
         return np.bincount(rows, weights=value, minlength=len(candidates)) * (1.0 + x[candidates])
 
     def take(j: int) -> None:
@@ -129,23 +134,26 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_tri_d
         chosen.append(int(j))
         if progress is not None:
             progress(1)
-    chosen_arr = prune_redundant(vis, rays, np.array(chosen, dtype=np.int64), min_views, min_tri_deg)
-    views, satisfied = coverage_state(vis, rays, chosen_arr, min_views, min_tri_deg)
+    chosen_arr = prune_redundant(vis, rays, np.array(chosen, dtype=np.int64), min_views, min_tri_deg,
+                                 max_pair_deg)
+    views, satisfied = coverage_state(vis, rays, chosen_arr, min_views, min_tri_deg, max_pair_deg)
     return Selection(chosen_arr, views, satisfied, bound)
 
 
-def coverage_state(vis: sp.csr_matrix, rays: np.ndarray, chosen, min_views: int, min_tri_deg: float):
+def coverage_state(vis: sp.csr_matrix, rays: np.ndarray, chosen, min_views: int, min_tri_deg: float,
+                   max_pair_deg: float | None = None):
     """Views per sample and whether each sample is covered by the ``chosen`` candidates."""
     rows, cols, ray = _rows(vis, rays, chosen)
     views = np.bincount(cols, minlength=vis.shape[1])
-    widest = widest_pair_angle(cols, ray, vis.shape[1])
-    return views, (views >= min_views) & (widest >= min_tri_deg)
+    paired = has_pair_between(cols, ray, vis.shape[1], min_tri_deg, max_pair_deg)
+    return views, (views >= min_views) & paired
 
 
-def prune_redundant(vis, rays, chosen, min_views: int, min_tri_deg: float) -> np.ndarray:
+def prune_redundant(vis, rays, chosen, min_views: int, min_tri_deg: float,
+                    max_pair_deg: float | None = None) -> np.ndarray:
     """Drop chosen candidates, earliest-picked last, whose removal uncovers no covered sample."""
     keep = np.ones(len(chosen), dtype=bool)
-    _views, covered = coverage_state(vis, rays, chosen, min_views, min_tri_deg)
+    _views, covered = coverage_state(vis, rays, chosen, min_views, min_tri_deg, max_pair_deg)
     indptr, indices = vis.indptr, vis.indices
     # Per sample, the chosen views that image it (rows of a chosen x samples matrix, by column).
     rows, cols, ray = _rows(vis, rays, chosen)
@@ -164,8 +172,7 @@ def prune_redundant(vis, rays, chosen, min_views: int, min_tri_deg: float) -> np
         n_views = np.bincount(local, minlength=len(s))
         if (n_views < min_views).any():
             continue
-        widest = widest_pair_angle(local, ray[entry], len(s))
-        if (widest >= min_tri_deg).all():
+        if has_pair_between(local, ray[entry], len(s), min_tri_deg, max_pair_deg).all():
             keep[k] = False
     return chosen[keep]
 

@@ -98,13 +98,14 @@ def view_rays(cam_index, point_index, positions, points) -> np.ndarray:
     return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
-def widest_pair_angle(point_index, rays, n_points: int, max_block: int = 4_000_000) -> np.ndarray:
-    """Per point, the largest angle (deg) between two of its view rays; 0 with < 2 views."""
+def _pair_cosines(point_index, rays, n_points: int, max_block: int = 4_000_000):
+    """Yield (points, k x k cosines between their view rays) in blocks of points with >= 2 views.
+
+    Points are padded with their first ray (a repeated ray adds only a 0 deg pair)."""
     point_index = np.asarray(point_index, dtype=np.int64)
     rays = np.asarray(rays, dtype=float).reshape(-1, 3)
-    widest = np.zeros(n_points)
     if len(point_index) == 0:
-        return widest
+        return
     order = np.argsort(point_index, kind="stable")
     sorted_rays = rays[order]
     counts = np.bincount(point_index, minlength=n_points)
@@ -119,9 +120,28 @@ def widest_pair_angle(point_index, rays, n_points: int, max_block: int = 4_000_0
         slot = np.arange(k)
         for lo in range(0, len(members), step):
             block = members[lo:lo + step]
-            # Pad with the point's first ray: a repeated ray changes no angle.
             idx = starts[block][:, None] + np.where(slot[None, :] < counts[block][:, None], slot[None, :], 0)
             vec = sorted_rays[idx]
-            cos = np.matmul(vec, vec.transpose(0, 2, 1))
-            widest[block] = np.degrees(np.arccos(np.clip(cos.min(axis=(1, 2)), -1.0, 1.0)))
+            yield block, np.matmul(vec, vec.transpose(0, 2, 1))
+
+
+def widest_pair_angle(point_index, rays, n_points: int, max_block: int = 4_000_000) -> np.ndarray:
+    """Per point, the largest angle (deg) between two of its view rays; 0 with < 2 views."""
+    widest = np.zeros(n_points)
+    for block, cos in _pair_cosines(point_index, rays, n_points, max_block):
+        widest[block] = np.degrees(np.arccos(np.clip(cos.min(axis=(1, 2)), -1.0, 1.0)))
     return widest
+
+
+def has_pair_between(point_index, rays, n_points: int, lo_deg: float, hi_deg: float | None) -> np.ndarray:
+    """Per point: do two of its view rays meet at an angle in [lo_deg, hi_deg]?
+
+    ``hi_deg`` None means no upper bound (the thesis's rule: some pair at least lo_deg apart).
+    A pair inside the window both triangulates (wide enough) and matches (narrow enough)."""
+    if hi_deg is None:
+        return widest_pair_angle(point_index, rays, n_points) >= lo_deg
+    ok = np.zeros(n_points, dtype=bool)
+    c_lo, c_hi = np.cos(np.radians(lo_deg)), np.cos(np.radians(hi_deg))
+    for block, cos in _pair_cosines(point_index, rays, n_points):
+        ok[block] = ((cos <= c_lo + 1e-12) & (cos >= c_hi - 1e-12)).any(axis=(1, 2))
+    return ok

@@ -1,0 +1,175 @@
+"""What Structure-from-Motion needs of a set of shots, beyond "two views 5 deg apart".
+
+Measured with ``coverplan simulate`` (DESIGN.md, docs/reconstruction.md): photos more than
+~40 deg apart rarely match, surface seen by only two photos is seldom reconstructed, and a
+set of photos whose "easy" pairs do not chain together falls apart into several models. So:
+
+- every surface sample needs ``min_views`` views with one pair whose rays meet at an angle in
+  [min_triangulation_deg, max_pair_deg] (wide enough to triangulate, narrow enough to match);
+- two shots are *linked* (SfM will match them) when each images a good part of what the
+  other images (``min_overlap`` of the smaller footprint, counted on surface samples) and
+  their rays to the shared surface meet at most ``max_pair_deg`` apart;
+- every shot needs ``min_neighbours`` linked shots, and the linked shots form one graph.
+
+``shot_links`` measures this for any set of cameras (the evaluator uses it on routes);
+``connect_shots`` adds candidates until the planner's shots meet it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+
+@dataclass(frozen=True)
+class MatchRule:
+    """When SfM can be expected to match two photos, and what every photo needs."""
+
+    max_pair_deg: float = 35.0
+    min_overlap: float = 0.3
+    min_neighbours: int = 2
+
+
+def _link_matrix(shared, size_a, size_b, cx, cy, cz, pos_a, pos_b, rule: MatchRule) -> np.ndarray:
+    """Links between rows (cameras a) and columns (cameras b) from shared-sample counts and
+    the sums of the shared samples' coordinates."""
+    shared = np.asarray(shared, dtype=float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        frac = shared / np.maximum(np.minimum(size_a[:, None], size_b[None, :]), 1)
+        centre = np.stack([cx, cy, cz], axis=-1) / np.maximum(shared, 1)[..., None]
+    ra = pos_a[:, None, :] - centre
+    rb = pos_b[None, :, :] - centre
+    cos = np.einsum("ijk,ijk->ij", ra, rb) / np.maximum(
+        np.linalg.norm(ra, axis=-1) * np.linalg.norm(rb, axis=-1), 1e-12)
+    return (shared > 0) & (frac >= rule.min_overlap) & (cos >= np.cos(np.radians(rule.max_pair_deg)))
+
+
+def _products(va: sp.csr_matrix, vb: sp.csr_matrix, points: np.ndarray):
+    """Shared-sample counts and coordinate sums between the rows of va and of vb (dense)."""
+    vbt = vb.T.tocsc()
+    shared = (va @ vbt).toarray()
+    sums = [(va.multiply(points[:, k][None, :]).tocsr() @ vbt).toarray() for k in range(3)]
+    return shared, sums
+
+
+def shot_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray,
+               rule: MatchRule = MatchRule()) -> np.ndarray:
+    """Boolean (n, n) matrix: which of the n cameras (rows of ``vis``) SfM should match."""
+    vis = sp.csr_matrix(vis, dtype=float)
+    size = np.asarray(vis.sum(axis=1)).ravel()
+    shared, (cx, cy, cz) = _products(vis, vis, points)
+    links = _link_matrix(shared, size, size, cx, cy, cz, positions, positions, rule)
+    np.fill_diagonal(links, False)
+    return links
+
+
+def graph_summary(links: np.ndarray, rule: MatchRule = MatchRule()) -> dict:
+    """Neighbour counts and connected pieces of a link matrix, as the reports state them."""
+    n = len(links)
+    if n == 0:
+        return {"shots": 0, "components": 0, "largest_component": 0, "shots_short_of_neighbours": 0,
+                "median_neighbours": 0.0}
+    degree = links.sum(axis=1)
+    n_comp, label = connected_components(sp.csr_matrix(links), directed=False)
+    return {"shots": int(n), "components": int(n_comp),
+            "largest_component": int(np.bincount(label).max()),
+            "shots_short_of_neighbours": int((degree < rule.min_neighbours).sum()),
+            "median_neighbours": float(np.median(degree))}
+
+
+def candidate_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray,
+                    rule: MatchRule = MatchRule()) -> sp.csr_matrix:
+    """Sparse symmetric link graph over all rows of ``vis`` (only pairs that share samples
+    are ever looked at, so it stays sparse however many candidates there are)."""
+    vis = sp.csr_matrix(vis, dtype=float)
+    size = np.asarray(vis.sum(axis=1)).ravel()
+    vt = vis.T.tocsc()
+    shared = (vis @ vt).tocoo()
+    keep = shared.row != shared.col
+    r, c, n_shared = shared.row[keep], shared.col[keep], shared.data[keep]
+    frac = n_shared / np.maximum(np.minimum(size[r], size[c]), 1)
+    ok = frac >= rule.min_overlap
+    r, c, n_shared = r[ok], c[ok], n_shared[ok]
+    centre = np.zeros((len(r), 3))
+    for k in range(3):
+        sums = (vis.multiply(points[:, k][None, :]).tocsr() @ vt).tocsr()
+        centre[:, k] = np.asarray(sums[r, c]).ravel() / n_shared
+    ra = positions[r] - centre
+    rb = positions[c] - centre
+    cos = np.einsum("ij,ij->i", ra, rb) / np.maximum(np.linalg.norm(ra, axis=1) * np.linalg.norm(rb, axis=1), 1e-12)
+    ok = cos >= np.cos(np.radians(rule.max_pair_deg))
+    n = vis.shape[0]
+    return sp.csr_matrix((np.ones(int(ok.sum())), (r[ok], c[ok])), shape=(n, n))
+
+
+def connect_shots(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray, chosen: np.ndarray,
+                  rule: MatchRule = MatchRule(), max_added: int | None = None) -> np.ndarray:
+    """Add candidates (rows of ``vis``) to ``chosen`` until every chosen shot has
+    ``rule.min_neighbours`` links and the links join all shots in one piece, or nothing helps.
+
+    Shots short of neighbours get, one at a time, the candidate linked to most of them; pieces
+    left apart are joined along the shortest chain of linked candidates (Dijkstra over the
+    candidate link graph from the largest piece).
+    """
+    from scipy.sparse.csgraph import dijkstra
+
+    chosen = [int(j) for j in chosen]
+    if len(chosen) < 2:
+        return np.array(chosen, dtype=np.int64)
+    budget = len(chosen) if max_added is None else int(max_added)
+    links = candidate_links(vis, positions, points, rule)
+    n = links.shape[0]
+    taken = np.zeros(n, dtype=bool)
+    taken[chosen] = True
+
+    def add(j: int) -> None:
+        chosen.append(int(j))
+        taken[j] = True
+
+    def among():
+        idx = np.array(chosen)
+        return idx, links[idx][:, idx]
+
+    added = 0
+    for _pass in range(3):
+        # 1. every shot its neighbours
+        while added < budget:
+            idx, sub = among()
+            short = idx[np.asarray(sub.sum(axis=1)).ravel() < rule.min_neighbours]
+            if len(short) == 0:
+                break
+            score = np.asarray(links[:, short].sum(axis=1)).ravel()
+            score[taken] = 0
+            best = int(np.argmax(score))
+            if score[best] <= 0:
+                break
+            add(best)
+            added += 1
+        # 2. one piece: chain the other pieces to the largest along linked candidates
+        idx, sub = among()
+        n_comp, label = connected_components(sub, directed=False)
+        if n_comp == 1 or added >= budget:
+            break
+        main = idx[label == np.argmax(np.bincount(label))]
+        dist, pred, _src = dijkstra(links, indices=main, unweighted=True, min_only=True,
+                                    return_predecessors=True)
+        joined = False
+        for comp in range(n_comp):
+            members = idx[label == comp]
+            if np.isin(members, main).any():
+                continue
+            end = members[np.argmin(dist[members])]
+            if not np.isfinite(dist[end]):
+                continue
+            node = pred[end]
+            while node >= 0 and not taken[node] and added < budget:
+                add(node)
+                added += 1
+                joined = True
+                node = pred[node]
+        if not joined:
+            break
+    return np.array(chosen, dtype=np.int64)
