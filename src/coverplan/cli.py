@@ -158,6 +158,7 @@ def cmd_plan(args) -> int:
                              "the input has no CRS; pass --crs EPSG:XXXX or --geo-origin LAT LON H")
     route = plan(scene, camera, gsd=args.gsd, security=args.security, start=args.start,
                  min_views=args.min_views, min_triangulation_deg=args.min_triangulation_deg,
+                 rule=args.rule, match=_match_rule(args),
                  max_incidence_deg=args.max_incidence_deg, min_altitude=args.min_altitude,
                  spacing=args.spacing, gimbal_pitch_range_deg=(args.gimbal_min_deg, args.gimbal_max_deg),
                  lp_time_limit=args.lp_time_limit, progress=progress, surface_classes=args.only,
@@ -176,20 +177,87 @@ def cmd_plan(args) -> int:
     if not args.quiet:
         print(plan_summary(route, args.speed, args.shot_seconds))
         print("written: " + ", ".join(str(p) for p in written))
+    if args.simulate:
+        code = _simulate(route, scene, args.simulate, args)
+        if args.report:
+            from .simulate import Simulation
+            _pictures(route, scene, ev, args.report, None, progress,
+                      Simulation.load(Path(args.simulate) / "simulation.json"))
+        return code
     return 0
 
 
-def _pictures(route, scene, ev, report, plot, progress) -> list:
+def _match_rule(args):
+    """The sfm rule's settings from the command line (None: the defaults)."""
+    from .reconstructability import MatchRule
+
+    given = {k: v for k, v in (("max_pair_deg", args.max_pair_deg), ("min_overlap", args.min_overlap),
+                               ("min_neighbours", args.min_neighbours)) if v is not None}
+    if not given:
+        return None
+    if args.rule != "sfm":
+        raise ParameterError(f"--{next(iter(given)).replace('_', '-')} belongs to --rule sfm")
+    if not 0 < given.get("max_pair_deg", 35.0) < 90:
+        raise ParameterError(f"--max-pair-deg must be in (0, 90), got {args.max_pair_deg}")
+    if not 0 < given.get("min_overlap", 0.3) <= 1:
+        raise ParameterError(f"--min-overlap must be in (0, 1], got {args.min_overlap}")
+    if given.get("min_neighbours", 2) < 0:
+        raise ParameterError(f"--min-neighbours must be >= 0, got {args.min_neighbours}")
+    return MatchRule(**given)
+
+
+def _pictures(route, scene, ev, report, plot, progress, simulation=None) -> list:
     written = []
     if report:
         from .report import write_html_report
         with progress.stage("HTML report"):
-            written.append(write_html_report(route, scene, report, evaluation=ev))
+            written.append(write_html_report(route, scene, report, evaluation=ev, simulation=simulation))
     if plot:
         from .report import write_figures
         with progress.stage("PNG figures"):
             written += write_figures(route, scene, plot, evaluation=ev)
     return written
+
+
+def cmd_simulate(args) -> int:
+    from .route import Route
+    route = Route.load(args.route)
+    scene = _scene(args)
+    return _simulate(route, scene, args.output, args)
+
+
+def _simulate(route, scene, out_dir, args) -> int:
+    """Render, reconstruct and judge; prints the table (or JSON), exit 1 under --strict when
+    the flight would not reconstruct."""
+    from pathlib import Path
+
+    from .progress import Progress
+    from .simulate import simulate
+
+    width = int(check_positive("--photo-width", args.photo_width))
+    if width < 160:
+        raise ParameterError(f"--photo-width must be at least 160 px, got {width}")
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise ParameterError(f"{out} exists and is not a folder")
+    progress = Progress(bars=not getattr(args, "quiet", False), verbose=getattr(args, "verbose", False))
+    sim = simulate(route, scene, out, width=width, threads=args.threads, progress=progress)
+    sim.save(out / "simulation.json")
+    if getattr(args, "json", False):
+        print(json.dumps(sim.to_dict(), indent=1, default=float))
+    elif not getattr(args, "quiet", False):
+        print(sim.table())
+        print(f"written: {out / 'simulation.json'}, photos in {out / 'images'}")
+    if getattr(args, "strict", False) and not sim.reconstructable:
+        print("coverplan: strict check failed: the photos do not reconstruct (see the table)", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _add_simulate_args(p):
+    p.add_argument("--photo-width", type=int, default=1024, metavar="PX",
+                   help="width of the rendered photos (field of view kept; default 1024)")
+    p.add_argument("--threads", type=int, default=-1, help="threads for SfM (default: all cores)")
 
 
 def cmd_report(args) -> int:
@@ -203,7 +271,14 @@ def cmd_report(args) -> int:
     progress = Progress(bars=not args.quiet, verbose=args.verbose)
     with progress.stage("evaluate"):
         ev = evaluate(route, scene, spacing=args.spacing)
-    written = _pictures(route, scene, ev, args.report, args.plot, progress)
+    simulation = None
+    if getattr(args, "simulation", None):
+        from .simulate import Simulation
+        simulation = Simulation.load(args.simulation)
+        if len(simulation.shot_registered) != len(route.shots):
+            raise ParameterError(f"{args.simulation}: simulates {len(simulation.shot_registered)} photos, "
+                                 f"the route takes {len(route.shots)}; is it another route's?")
+    written = _pictures(route, scene, ev, args.report, args.plot, progress, simulation)
     if not args.quiet:
         print("written: " + ", ".join(str(p) for p in written))
     return 0
@@ -301,8 +376,17 @@ def build_parser() -> argparse.ArgumentParser:
                    help="security distance to keep from every mesh")
     p.add_argument("--start", nargs=3, type=float, default=None, metavar=("X", "Y", "Z"),
                    help="start and end point (default: just outside the shot region, north-west)")
-    p.add_argument("--min-views", type=int, default=2)
+    p.add_argument("--rule", choices=["sfm", "thesis"], default="sfm",
+                   help="sfm (default): plan for a reconstruction (docs/reconstruction.md); "
+                        "thesis: 2 views 5 deg apart, the thesis's rule, for comparison")
+    p.add_argument("--min-views", type=int, default=None, help="views per surface point (default 3; thesis rule 2)")
     p.add_argument("--min-triangulation-deg", type=float, default=5.0)
+    p.add_argument("--max-pair-deg", type=float, default=None, metavar="DEG",
+                   help="sfm rule: widest view pair SfM is trusted to match (default 35)")
+    p.add_argument("--min-overlap", type=float, default=None, metavar="FRACTION",
+                   help="sfm rule: surface two linked photos share (default 0.3)")
+    p.add_argument("--min-neighbours", type=int, default=None,
+                   help="sfm rule: linked photos every photo needs (default 2)")
     p.add_argument("--max-incidence-deg", type=float, default=70.0)
     p.add_argument("--min-altitude", type=float, default=None, metavar="M",
                    help="lowest flight height above the ground (default: the security distance)")
@@ -332,7 +416,22 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summary")
     p.add_argument("-v", "--verbose", action="store_true", help="log each stage's time")
+    p.add_argument("--simulate", default=None, metavar="DIR",
+                   help="also render the photos and reconstruct them with COLMAP into DIR (needs coverplan[sfm])")
+    _add_simulate_args(p)
     p.set_defaults(func=cmd_plan)
+
+    p = sub.add_parser("simulate", help="render a route's photos, reconstruct them with COLMAP, judge the result")
+    p.add_argument("route", metavar="ROUTE.json")
+    _add_scene_args(p, targets_positional=False)
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="folder for photos, COLMAP files and simulation.json")
+    _add_simulate_args(p)
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.add_argument("--strict", action="store_true",
+                   help="exit 1 unless the flight is reconstructable (DESIGN.md: one model, >= 95 %% surface)")
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.add_argument("-v", "--verbose", action="store_true")
+    p.set_defaults(func=cmd_simulate)
 
     for name, helptext in (("report", "write the HTML flight report (and/or PNG figures) of a route"),
                            ("plot", "write PNG figures (and/or the HTML report) of a route")):
@@ -340,6 +439,8 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("route", metavar="ROUTE.json")
         _add_scene_args(p, targets_positional=False)
         p.add_argument("--spacing", type=float, default=None, metavar="M")
+        p.add_argument("--simulation", default=None, metavar="SIMULATION.json",
+                       help="show what 'coverplan simulate' recovered (its DIR/simulation.json)")
         if name == "report":
             p.add_argument("-o", "--output", dest="report", default=None, metavar="REPORT.html")
             p.add_argument("--plot", default=None, metavar="PREFIX")

@@ -222,6 +222,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     with progress.stage("view selection", unit="shot") as update:
         selection = select_views(vis, rays, min_views, min_triangulation_deg, lp_time_limit=lp_time_limit,
                                  progress=update, max_pair_deg=max_pair)
+    covering = len(selection.chosen)
     if match is not None and len(selection.chosen):
         with progress.stage("linking shots for SfM"):
             selection.chosen = connect_shots(vis, cands.positions, samples.points, selection.chosen, match)
@@ -280,6 +281,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     route.metrics = {
         "shots": int(route.shot.sum()),
         "selected_views": int(len(chosen)),
+        "linking_shots": int(max(len(selection.chosen) - covering, 0)),
         "path_length_m": route.path_length,
         "planned_coverage_pct": 100.0 * covered_area / reachable_area if reachable_area else 0.0,
         "reachable_area_m2": reachable_area,

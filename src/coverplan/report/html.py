@@ -43,7 +43,7 @@ def display_mesh(mesh, max_faces: int = MAX_DISPLAY_FACES):
     return merged, f[keep]
 
 
-def report_data(route, scene, evaluation) -> dict:
+def report_data(route, scene, evaluation, simulation=None) -> dict:
     """Everything the viewer draws, as JSON-ready values."""
     samples = evaluation.samples
     cam, pt, rng = evaluation.pairs
@@ -60,7 +60,12 @@ def report_data(route, scene, evaluation) -> dict:
         v, f = display_mesh(part.mesh)
         meshes.append({"name": part.name, "role": part.role, "positions": _b64(v, np.float32),
                        "indices": _b64(f, np.uint32)})
+    extra = {}
+    if simulation is not None:
+        extra["simulation"] = {"reconstructed": _b64(simulation.reconstructed_at(samples.points), np.uint8),
+                               "shot_registered": _b64(simulation.shot_registered, np.uint8)}
     return {
+        **extra,
         "meshes": meshes,
         "samples": {"positions": _b64(samples.points, np.float32),
                     "views": _b64(np.minimum(evaluation.views, 255), np.uint8),
@@ -135,8 +140,17 @@ def uncovered_rows(evaluation) -> str:
     return "\n".join(rows) or "<tr><td class=l>nothing: every sample is covered</td><td></td><td></td><td></td></tr>"
 
 
-def render_html(route, scene, evaluation, title: str = "coverplan flight report") -> str:
-    data = report_data(route, scene, evaluation)
+def simulation_rows(sim) -> str:
+    """The reconstruction table of a simulation, or a line saying how to get one."""
+    if sim is None:
+        return ("<p>No simulation: <code>coverplan simulate ROUTE --target ... -o DIR</code> renders the photos, "
+                "reconstructs them with COLMAP and shows here what came back.</p>")
+    rows = [tuple(line.split("  ", 1)) if "  " in line else (line, "") for line in sim.table().splitlines()]
+    return f"<table>{_rows([(k.strip(), v.strip()) for k, v in rows])}</table>"
+
+
+def render_html(route, scene, evaluation, title: str = "coverplan flight report", simulation=None) -> str:
+    data = report_data(route, scene, evaluation, simulation)
     three = base64.b64encode(_asset("three.module.min.js").encode()).decode()
     orbit = base64.b64encode(_asset("OrbitControls.js").encode()).decode()
     import_map = {"imports": {"three": f"data:text/javascript;base64,{three}",
@@ -185,18 +199,21 @@ minimum clearance {evaluation.metrics['min_clearance_m']:.2f} m
   <label><input type=checkbox data-layer=start checked>start</label></div>
  <div>colour samples by:
   <label><input type=radio name=colour value=views checked>valid views</label>
-  <label><input type=radio name=colour value=gsd>achieved GSD</label></div>
+  <label><input type=radio name=colour value=gsd>achieved GSD</label>
+  {'<label><input type=radio name=colour value=sfm>reconstructed (COLMAP, 0.2 m)</label>' if simulation is not None else ''}</div>
  <div class=legend>views<span style="background:#e53e3e"></span>0<span style="background:#ed8936"></span>1
   <span style="background:#9ae6b4"></span>2<span style="background:#2f855a"></span>3+
   <span style="background:#d53f8c"></span>missed<span style="background:#553c9a"></span>unreachable
   &nbsp; path<span style="background:#2b6cb0"></span>initial<span style="background:#dd6b20"></span>coverage
-  <span style="background:#805ad5"></span>final</div>
+  <span style="background:#805ad5"></span>final
+  {'&nbsp; shots<span style="background:#1a202c"></span>registered<span style="background:#e53e3e"></span>lost by SfM' if simulation is not None else ''}</div>
 </div>
 <div class=cols>
 <section><h2>Parameters</h2><table>{_rows(params)}</table></section>
 <section><h2>Metrics</h2><table>{_rows(metrics_rows(evaluation.metrics))}</table></section>
 <section><h2>Not covered, and why</h2><table><tr><th class=l>reason</th><th>samples</th><th>m²</th><th>around</th></tr>
 {uncovered_rows(evaluation)}</table></section>
+<section><h2>Reconstruction (simulated photos, COLMAP)</h2>{simulation_rows(simulation)}</section>
 </div>
 <section><h2>Road map ({len(route)} waypoints)</h2>
 <div class=scroll><table id="road-map"><thead><tr><th>#</th><th>x</th><th>y</th><th>z</th><th>altitude</th>
@@ -211,13 +228,15 @@ minimum clearance {evaluation.metrics['min_clearance_m']:.2f} m
 """
 
 
-def write_html_report(route, scene, path, evaluation=None, title: str | None = None) -> Path:
-    """Write the report for ``route`` in ``scene`` (evaluating it unless given)."""
+def write_html_report(route, scene, path, evaluation=None, title: str | None = None, simulation=None) -> Path:
+    """Write the report for ``route`` in ``scene`` (evaluating it unless given); with a
+    ``simulation`` it also shows what SfM recovered and which photos it lost."""
     if evaluation is None:
         from ..evaluate import evaluate
         evaluation = evaluate(route, scene)
     path = Path(path)
-    path.write_text(render_html(route, scene, evaluation, title or f"coverplan flight report: {path.stem}"),
+    path.write_text(render_html(route, scene, evaluation, title or f"coverplan flight report: {path.stem}",
+                                simulation=simulation),
                     encoding="utf-8")
     return path
 

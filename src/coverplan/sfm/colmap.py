@@ -70,7 +70,8 @@ def neighbour_pairs(centres: np.ndarray, view_dirs: np.ndarray, k: int) -> list[
 
 
 def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, view_dirs: np.ndarray,
-            work_dir: Path, *, exhaustive_limit: int = 80, neighbours: int = 20, max_features: int = 4096, first_octave: int = 0,
+            work_dir: Path, *, exhaustive_limit: int = 80, neighbours: int = 20, max_features: int = 8192, first_octave: int = 0,
+            peak_threshold: float = 0.004,
             threads: int = -1,
             seed: int = 0, progress=None) -> SfmResult:
     """Features, matching and incremental mapping over the photos ``names`` in ``image_dir``."""
@@ -94,6 +95,7 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     extraction.max_image_size = max(photo.width, photo.height)
     extraction.sift.max_num_features = max_features
     extraction.sift.first_octave = first_octave
+    extraction.sift.peak_threshold = peak_threshold
     with _stage(progress, "SfM features"):
         pycolmap.extract_features(database, image_dir, image_names=names, camera_mode=pycolmap.CameraMode.SINGLE,
                                   reader_options=reader, extraction_options=extraction,
@@ -134,6 +136,9 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
         recs = pycolmap.incremental_mapping(database, image_dir, sparse, options=options,
                                             next_image_callback=lambda: tick(1))
     seconds["mapping"] = time.perf_counter() - t
+    for k, rec in enumerate(sorted(recs.values(), key=lambda r: -r.num_reg_images())):
+        (sparse / str(k)).mkdir(exist_ok=True)
+        rec.write(sparse / str(k))  # COLMAP's own files, for its GUI and for independent checks
 
     index = {name: i for i, name in enumerate(names)}
     models = [_aligned(pycolmap, rec, index, true_centres) for rec in recs.values()]

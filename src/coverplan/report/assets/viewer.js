@@ -63,6 +63,8 @@ const samplePos = decode(data.samples.positions, Float32Array);
 const views = decode(data.samples.views, Uint8Array);
 const gsd = decode(data.samples.gsd, Float32Array);
 const status = decode(data.samples.status, Uint8Array);
+// With a simulation: 1 where SfM put a 3D point within 0.2 m of the sample.
+const sfmRecon = data.simulation ? decode(data.simulation.reconstructed, Uint8Array) : null;
 const sampleGeom = new THREE.BufferGeometry();
 sampleGeom.setAttribute('position', new THREE.BufferAttribute(samplePos, 3));
 const sampleColours = new Float32Array(samplePos.length);
@@ -73,7 +75,9 @@ addLayer('samples', new THREE.Points(sampleGeom, new THREE.PointsMaterial({ size
 function colourSamples(mode) {
   const c = new THREE.Color();
   for (let i = 0; i < views.length; i++) {
-    if (mode === 'gsd') {
+    if (mode === 'sfm') {
+      c.set(sfmRecon && sfmRecon[i] ? 0x2f855a : 0xe53e3e);
+    } else if (mode === 'gsd') {
       if (!(gsd[i] > 0)) c.set(0x718096);
       else {
         const t = Math.min(Math.max(gsd[i] / data.params.gsd_m, 0), 1);
@@ -122,6 +126,9 @@ addLayer('path', new THREE.LineSegments(pathGeom, new THREE.LineBasicMaterial({ 
 
 // Shots as small camera frusta (apex at the camera, base one frustum-depth ahead).
 const fr = [];
+const frLost = [];  // shots SfM could not register in the largest model (with a simulation)
+const registered = data.simulation ? decode(data.simulation.shot_registered, Uint8Array) : null;
+let shotNo = 0;
 const tanH = Math.tan(data.camera.hfov_deg * Math.PI / 360);
 const tanV = Math.tan(data.camera.vfov_deg * Math.PI / 360);
 const depth = data.frustum_depth;
@@ -135,14 +142,23 @@ for (let i = 0; i < shot.length; i++) {
   const apex = new THREE.Vector3(wp[3 * i], wp[3 * i + 1], wp[3 * i + 2]);
   const corners = [[1, 1], [1, -1], [-1, -1], [-1, 1]].map(([a, b]) => apex.clone()
     .addScaledVector(f, depth).addScaledVector(r, a * depth * tanH).addScaledVector(u, b * depth * tanV));
+  const out = registered && !registered[shotNo] ? frLost : fr;
+  shotNo++;
   for (let k = 0; k < 4; k++) {
-    fr.push(...apex.toArray(), ...corners[k].toArray());
-    fr.push(...corners[k].toArray(), ...corners[(k + 1) % 4].toArray());
+    out.push(...apex.toArray(), ...corners[k].toArray());
+    out.push(...corners[k].toArray(), ...corners[(k + 1) % 4].toArray());
   }
 }
 const frGeom = new THREE.BufferGeometry();
 frGeom.setAttribute('position', new THREE.Float32BufferAttribute(fr, 3));
-addLayer('shots', new THREE.LineSegments(frGeom, new THREE.LineBasicMaterial({ color: 0x1a202c, transparent: true, opacity: 0.6 })));
+const shotGroup = new THREE.Group();
+shotGroup.add(new THREE.LineSegments(frGeom, new THREE.LineBasicMaterial({ color: 0x1a202c, transparent: true, opacity: 0.6 })));
+if (frLost.length) {
+  const lostGeom = new THREE.BufferGeometry();
+  lostGeom.setAttribute('position', new THREE.Float32BufferAttribute(frLost, 3));
+  shotGroup.add(new THREE.LineSegments(lostGeom, new THREE.LineBasicMaterial({ color: 0xe53e3e })));
+}
+addLayer('shots', shotGroup);
 
 const start = new THREE.Mesh(new THREE.SphereGeometry(data.radius * 0.02, 16, 12),
   new THREE.MeshLambertMaterial({ color: 0x38a169 }));

@@ -1,0 +1,103 @@
+"""Do the photos reconstruct? coverplan's default plan vs QGroundControl's Structure Scan.
+
+For each sample scene both flights are planned at the same camera, GSD and security distance,
+their photos rendered on the textured scene and run through COLMAP (``coverplan.simulate``);
+the table gives photos, path, flight time, planning time, photos registered in the largest
+model, number of models and the share of the target surface with a 3D point within 0.2 m,
+overall and per surface class. Also the thesis's rule (``--rule thesis``) for comparison.
+Slow (minutes per flight): not part of the test suite. ``--quick`` runs one small scene.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+import time
+from pathlib import Path
+
+from common import MESHES, table, write_json
+from structure_scan import structure_scan
+
+from coverplan import evaluate, get_camera, load_scene, plan
+from coverplan.progress import Progress
+from coverplan.simulate import simulate
+
+SCENES = {
+    "ring": ("ring_prism.obj", []),  # terrace and overhang
+    "courtyard": ("courtyard.obj", []),
+    "gabled": ("gabled_house.obj", []),
+    "fig411": ("thesis_prism.obj", ["fig411_obstacles.obj"]),  # thesis prism with the Figure 4.11 obstacle
+}
+CAMERA, GSD, SECURITY = "phantom4pro", 0.004, 3.0
+SPEED, SHOT_SECONDS = 5.0, 1.0
+
+
+def flight_minutes(route) -> float:
+    return (route.path_length / SPEED + SHOT_SECONDS * len(route.shots)) / 60.0
+
+
+def run(name, flight, route, scene, plan_s, out: Path, width: int) -> dict:
+    ev = evaluate(route, scene)
+    sim = simulate(route, scene, out / f"{name}_{flight}", width=width, progress=Progress(verbose=True))
+    by = sim.surface["by_radius"]["0.2"]
+    row = {"scene": name, "flight": flight, "photos": sim.photos, "path_m": route.path_length,
+           "flight_min": flight_minutes(route), "plan_s": plan_s, "registered": sim.registered,
+           "registered_pct": 100.0 * sim.registered / sim.photos, "models": sim.models, "points": sim.points,
+           "surface_01_pct": sim.surface["by_radius"]["0.1"]["pct"], "surface_02_pct": by["pct"],
+           "by_class_02_pct": by["by_class_pct"], "worst_class": min(by["by_class_pct"], key=by["by_class_pct"].get),
+           "worst_class_pct": min(by["by_class_pct"].values()), "safe": ev.safe,
+           "coverage_pct": ev.coverage_pct, "components": ev.metrics["shot_graph"]["components"],
+           "reconstructable": sim.reconstructable, "sim_seconds": sim.seconds}
+    print(f"  {name} {flight}: {sim.registered}/{sim.photos} registered, {sim.models} models, "
+          f"{by['pct']:.1f} % @0.2 m", flush=True)
+    return row
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--scenes", nargs="+", default=None, choices=sorted(SCENES))
+    parser.add_argument("--flights", nargs="+", default=["coverplan", "structure-scan", "thesis-rule"],
+                        choices=["coverplan", "structure-scan", "thesis-rule"])
+    parser.add_argument("--width", type=int, default=1024, help="rendered photo width in px")
+    parser.add_argument("--keep", default=None, help="folder to keep photos and COLMAP files in")
+    args = parser.parse_args(argv)
+    names = ["gabled"] if args.quick else (args.scenes or list(SCENES))
+    if args.quick:  # a smoke run: small photos, ours against the scan only
+        args.width, args.flights = 480, [f for f in args.flights if f != "thesis-rule"]
+    camera = get_camera(CAMERA)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(args.keep or tmp)
+        for name in names:
+            target, obstacles = SCENES[name]
+            scene = load_scene(MESHES / target, [MESHES / o for o in obstacles])
+            t = time.perf_counter()
+            ours = plan(scene, camera, gsd=GSD, security=SECURITY)
+            ours_s = time.perf_counter() - t
+            if "coverplan" in args.flights:
+                rows.append(run(name, "coverplan", ours, scene, ours_s, out, args.width))
+            if "thesis-rule" in args.flights:
+                t = time.perf_counter()
+                thesis = plan(scene, camera, gsd=GSD, security=SECURITY, rule="thesis")
+                rows.append(run(name, "thesis-rule", thesis, scene, time.perf_counter() - t, out, args.width))
+            if "structure-scan" in args.flights:
+                t = time.perf_counter()
+                scan = structure_scan(scene, camera, GSD, SECURITY, ours.positions[0])
+                rows.append(run(name, "structure-scan", scan, scene, time.perf_counter() - t, out, args.width))
+    for r in rows:
+        scan = next((s for s in rows if s["scene"] == r["scene"] and s["flight"] == "structure-scan"), None)
+        r["photos_vs_scan"] = r["photos"] / scan["photos"] if scan else None
+    print(table(rows, [("scene", "scene", ""), ("flight", "flight", ""), ("photos", "photos", "d"),
+                       ("photos_vs_scan", "x scan", ".2f"), ("path_m", "path m", ".0f"),
+                       ("flight_min", "flight min", ".1f"), ("plan_s", "plan s", ".1f"),
+                       ("registered", "registered", "d"), ("models", "models", "d"),
+                       ("surface_01_pct", "@0.1 m %", ".1f"), ("surface_02_pct", "@0.2 m %", ".1f"),
+                       ("worst_class", "worst class", ""), ("worst_class_pct", "worst %", ".1f")]))
+    path = write_json("reconstruction", args.quick, {"camera": CAMERA, "gsd_m": GSD, "security_m": SECURITY,
+                                                     "photo_width_px": args.width, "rows": rows})
+    print(f"written {path}")
+
+
+if __name__ == "__main__":
+    main()
