@@ -181,7 +181,7 @@ def cmd_plan(args) -> int:
         code = _simulate(route, scene, args.simulate, args)
         if args.report:
             from .simulate import Simulation
-            _pictures(route, scene, ev, args.report, None, progress,
+            _pictures(route, scene, ev, args.report, args.plot, progress,
                       Simulation.load(Path(args.simulate) / "simulation.json"))
         return code
     return 0
@@ -215,7 +215,7 @@ def _pictures(route, scene, ev, report, plot, progress, simulation=None) -> list
     if plot:
         from .report import write_figures
         with progress.stage("PNG figures"):
-            written += write_figures(route, scene, plot, evaluation=ev)
+            written += write_figures(route, scene, plot, evaluation=ev, simulation=simulation)
     return written
 
 

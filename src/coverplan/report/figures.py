@@ -133,11 +133,45 @@ def coverage_histogram(evaluation, path) -> Path:
     return Path(path)
 
 
-def write_figures(route, scene, prefix, evaluation=None) -> list[Path]:
-    """Write ``PREFIX_overview.png``, ``PREFIX_slices.png`` and ``PREFIX_coverage.png``."""
+def reconstruction(route, points, recovered, simulation, path) -> Path:
+    """What SfM recovered: surface points green (a 3D point within 0.2 m) or red, and the
+    photos registered (black) or lost (red), seen from two sides."""
+    fig = plt.figure(figsize=(13, 6))
+    shots = route.positions[route.shots]
+    reg = simulation.shot_registered.astype(bool)
+    for k, azim in enumerate((-60, 120)):
+        ax = fig.add_subplot(1, 2, k + 1, projection="3d")
+        ax.scatter(*points[~recovered].T, s=2, c="#e53e3e", depthshade=False, label="not recovered")
+        ax.scatter(*points[recovered].T, s=2, c="#38a169", depthshade=False, label="recovered @0.2 m")
+        ax.scatter(*shots[reg].T, s=10, c="#1a202c", label="photo registered")
+        if (~reg).any():
+            ax.scatter(*shots[~reg].T, s=24, c="#e53e3e", marker="x", label="photo lost")
+        ax.view_init(elev=25, azim=azim)
+        ax.set_box_aspect(np.ptp(np.vstack([points, shots]), axis=0) + 1e-6)
+        ax.set_xlabel("x m")
+        ax.set_ylabel("y m")
+        ax.set_zlabel("z m")
+        if k == 0:
+            ax.legend(loc="upper left", fontsize=8, markerscale=3)
+    fig.suptitle(f"COLMAP: {simulation.registered} of {simulation.photos} photos in the largest of "
+                 f"{simulation.models} model(s), {simulation.reconstructed_pct:.1f} % of the surface within 0.2 m")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
+    return Path(path)
+
+
+def write_figures(route, scene, prefix, evaluation=None, simulation=None) -> list[Path]:
+    """Write ``PREFIX_overview.png``, ``PREFIX_slices.png`` and ``PREFIX_coverage.png``, and
+    with a simulation ``PREFIX_reconstruction.png``."""
     if evaluation is None:
         from ..evaluate import evaluate
         evaluation = evaluate(route, scene)
     prefix = str(prefix)
-    return [overview(route, scene, f"{prefix}_overview.png"), slices(route, scene, f"{prefix}_slices.png"),
-            coverage_histogram(evaluation, f"{prefix}_coverage.png")]
+    out = [overview(route, scene, f"{prefix}_overview.png"), slices(route, scene, f"{prefix}_slices.png"),
+           coverage_histogram(evaluation, f"{prefix}_coverage.png")]
+    if simulation is not None:
+        pts = evaluation.samples.points
+        out.append(reconstruction(route, pts, simulation.reconstructed_at(pts), simulation,
+                                  f"{prefix}_reconstruction.png"))
+    return out
