@@ -61,6 +61,7 @@ def main(argv=None):
                         choices=["coverplan", "structure-scan", "thesis-rule"])
     parser.add_argument("--width", type=int, default=1024, help="rendered photo width in px")
     parser.add_argument("--keep", default=None, help="folder to keep photos and COLMAP files in")
+    parser.add_argument("--tag", default=None, help="write results/reconstruction_TAG.json (runs split over sessions)")
     args = parser.parse_args(argv)
     names = ["gabled"] if args.quick else (args.scenes or list(SCENES))
     if args.quick:  # a smoke run: small photos, ours against the scan only
@@ -94,7 +95,7 @@ def main(argv=None):
                        ("registered", "registered", "d"), ("models", "models", "d"),
                        ("surface_01_pct", "@0.1 m %", ".1f"), ("surface_02_pct", "@0.2 m %", ".1f"),
                        ("worst_class", "worst class", ""), ("worst_class_pct", "worst %", ".1f")]))
-    path = write_json("reconstruction", args.quick, {"camera": CAMERA, "gsd_m": GSD, "security_m": SECURITY,
+    path = write_json("reconstruction" + (f"_{args.tag}" if args.tag else ""), args.quick, {"camera": CAMERA, "gsd_m": GSD, "security_m": SECURITY,
                                                      "photo_width_px": args.width, "rows": rows})
     print(f"written {path}")
 

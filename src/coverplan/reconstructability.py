@@ -82,27 +82,33 @@ def graph_summary(links: np.ndarray, rule: MatchRule = MatchRule()) -> dict:
 
 def candidate_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray,
                     rule: MatchRule = MatchRule()) -> sp.csr_matrix:
-    """Sparse symmetric link graph over all rows of ``vis`` (only pairs that share samples
-    are ever looked at, so it stays sparse however many candidates there are)."""
+    """Sparse symmetric link graph over all rows of ``vis``, by the same test as ``shot_links``
+    (only pairs that share samples are ever looked at, so it stays sparse)."""
     vis = sp.csr_matrix(vis, dtype=float)
     size = np.asarray(vis.sum(axis=1)).ravel()
     vt = vis.T.tocsc()
-    shared = (vis @ vt).tocoo()
-    keep = shared.row != shared.col
-    r, c, n_shared = shared.row[keep], shared.col[keep], shared.data[keep]
-    frac = n_shared / np.maximum(np.minimum(size[r], size[c]), 1)
-    ok = frac >= rule.min_overlap
-    r, c, n_shared = r[ok], c[ok], n_shared[ok]
-    centre = np.zeros((len(r), 3))
+    shared = (vis @ vt).tocsr()
+    shared.sort_indices()
+    # Coordinates shifted to be positive, so the sums have exactly the pattern of ``shared``
+    # and their data arrays line up entry for entry.
+    shifted = points - points.min(axis=0) + 1.0
+    centre = np.empty((shared.nnz, 3))
     for k in range(3):
-        sums = (vis.multiply(points[:, k][None, :]).tocsr() @ vt).tocsr()
-        centre[:, k] = np.asarray(sums[r, c]).ravel() / n_shared
+        sums = (vis.multiply(shifted[:, k][None, :]).tocsr() @ vt).tocsr()
+        sums.sort_indices()
+        centre[:, k] = sums.data / shared.data
+    centre += points.min(axis=0) - 1.0
+    r = np.repeat(np.arange(shared.shape[0]), np.diff(shared.indptr))
+    c = shared.indices
+    keep = (r < c) & (shared.data >= rule.min_overlap * np.minimum(size[r], size[c]))
+    r, c, centre = r[keep], c[keep], centre[keep]
     ra = positions[r] - centre
     rb = positions[c] - centre
     cos = np.einsum("ij,ij->i", ra, rb) / np.maximum(np.linalg.norm(ra, axis=1) * np.linalg.norm(rb, axis=1), 1e-12)
     ok = cos >= np.cos(np.radians(rule.max_pair_deg))
+    r, c = r[ok], c[ok]
     n = vis.shape[0]
-    return sp.csr_matrix((np.ones(int(ok.sum())), (r[ok], c[ok])), shape=(n, n))
+    return sp.csr_matrix((np.ones(2 * len(r)), (np.concatenate([r, c]), np.concatenate([c, r]))), shape=(n, n))
 
 
 def connect_shots(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray, chosen: np.ndarray,
@@ -135,13 +141,13 @@ def connect_shots(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray,
 
     added = 0
     for _pass in range(3):
-        # 1. every shot its neighbours
+        # 1. every shot its neighbours (links is symmetric: degrees are one product)
         while added < budget:
-            idx, sub = among()
-            short = idx[np.asarray(sub.sum(axis=1)).ravel() < rule.min_neighbours]
-            if len(short) == 0:
+            degree = links @ taken.astype(float)
+            short_mask = taken & (degree < rule.min_neighbours)
+            if not short_mask.any():
                 break
-            score = np.asarray(links[:, short].sum(axis=1)).ravel()
+            score = links @ short_mask.astype(float)
             score[taken] = 0
             best = int(np.argmax(score))
             if score[best] <= 0:
