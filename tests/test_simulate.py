@@ -122,3 +122,16 @@ def test_without_pycolmap_simulate_says_how_to_get_it(monkeypatch, house, tmp_pa
                  str(tmp_path / "x")]) == 2
     err = capsys.readouterr().err.strip()
     assert err.endswith("pip install 'coverplan[sfm]'") and len(err.splitlines()) == 1
+
+
+def test_large_flights_match_photos_that_see_the_same_surface():
+    """Pairs for large flights come from what the photos see, not where the cameras are."""
+    from coverplan.sfm.colmap import covisible_pairs
+    rng = np.random.default_rng(0)
+    wall_a = rng.random((500, 3)) * [10, 0.1, 10]
+    wall_b = rng.random((500, 3)) * [0.1, 10, 10] + [40, 0, 0]
+    seen = [wall_a, wall_a[::2], wall_b, wall_b[1::2], np.zeros((0, 3))]
+    pairs = covisible_pairs(seen, cell=1.0, k=3)
+    assert (0, 1) in pairs and (2, 3) in pairs
+    assert not any(i in (0, 1) and j in (2, 3) for i, j in pairs)
+    assert not any(4 in p for p in pairs)

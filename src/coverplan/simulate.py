@@ -14,14 +14,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .orientation import view_direction
 from .progress import Progress
-from .sfm.colmap import require_pycolmap, run_sfm
+from .sfm.colmap import covisible_pairs, require_pycolmap, run_sfm
 from .sfm.judge import judge_samples, reconstructed_surface
 from .sfm.render import PhotoCamera, PhotoRenderer
 
 DEFAULT_WIDTH_PX = 1024
 JUDGE_SPACING_M = 0.1
+PAIRS_PER_PHOTO = 30  # matched per photo in flights too large for exhaustive matching
 # Reconstructable (DESIGN.md): one model holding >= 98 % of the photos, >= 95 % of the
 # surface within 0.2 m of a 3D point and >= 90 % in every class.
 REGISTERED_MIN = 0.98
@@ -148,14 +148,17 @@ def simulate(route, scene, out_dir, *, width: int = DEFAULT_WIDTH_PX, threads: i
     names = [f"shot_{k:04d}.png" for k in range(len(shots))]
     t = time.perf_counter()
     from PIL import Image
+    seen = []
     with progress.stage("rendering photos", total=len(shots), unit="img") as tick:
         for name, i in zip(names, shots):
-            Image.fromarray(renderer.render(route.positions[i], route.heading_deg[i], route.pitch_deg[i])).save(images / name)
+            img, pts = renderer.render_with_points(route.positions[i], route.heading_deg[i], route.pitch_deg[i])
+            Image.fromarray(img).save(images / name)
+            seen.append(pts)
             tick(1)
     seconds = {"render": time.perf_counter() - t}
     centres = route.positions[shots]
-    dirs = view_direction(route.heading_deg[shots], route.pitch_deg[shots])
-    sfm = run_sfm(images, names, photo, centres, dirs, out_dir / "colmap", exhaustive_limit=exhaustive_limit,
+    pairs = covisible_pairs(seen, cell=max(0.25 * d_opt, 0.5), k=PAIRS_PER_PHOTO) if len(shots) > exhaustive_limit else []
+    sfm = run_sfm(images, names, photo, centres, pairs, out_dir / "colmap", exhaustive_limit=exhaustive_limit,
                   threads=threads, seed=seed, progress=progress)
     seconds.update(sfm.seconds)
     best = sfm.largest

@@ -51,30 +51,45 @@ class SfmResult:
         return self.models[0] if self.models else None
 
 
-def neighbour_pairs(centres: np.ndarray, view_dirs: np.ndarray, k: int) -> list[tuple[int, int]]:
-    """Pairs of photos worth matching in a large flight: each photo's ``k`` nearest cameras,
-    ranked by distance plus a penalty for looking the other way."""
-    from scipy.spatial import cKDTree
+def covisible_pairs(seen: list[np.ndarray], cell: float, k: int) -> list[tuple[int, int]]:
+    """Pairs of photos worth matching in a large flight: for each photo, the ``k`` photos that
+    see most of the same scene (points its pixels hit, counted in cells of ``cell`` metres).
 
-    n = len(centres)
-    k = min(k, n - 1)
-    tree = cKDTree(centres)
-    _d, idx = tree.query(centres, k=min(n, 3 * k + 1))
+    Nearest camera positions are not enough: a flight round a tall block has photos a few
+    metres apart looking at different walls, and photos of one wall from far apart."""
+    import scipy.sparse as sp
+
+    rows, cols = [], []
+    keys: dict = {}
+    for i, pts in enumerate(seen):
+        if len(pts) == 0:
+            continue
+        cells = np.unique(np.floor(pts / cell).astype(np.int64), axis=0)
+        ids = np.array([keys.setdefault(tuple(v), len(keys)) for v in cells])
+        rows.append(np.full(len(ids), i))
+        cols.append(ids)
+    n = len(seen)
+    if not rows:
+        return []
+    m = sp.csr_matrix((np.ones(sum(map(len, rows))), (np.concatenate(rows), np.concatenate(cols))),
+                      shape=(n, len(keys)))
+    shared = (m @ m.T).toarray()
+    np.fill_diagonal(shared, 0)
     pairs = set()
     for i in range(n):
-        cand = idx[i][idx[i] != i]
-        cost = np.linalg.norm(centres[cand] - centres[i], axis=1) * (2.0 - view_dirs[cand] @ view_dirs[i])
-        for j in cand[np.argsort(cost)[:k]]:
+        best = np.argsort(-shared[i])[:k]
+        for j in best[shared[i, best] > 0]:
             pairs.add((min(i, int(j)), max(i, int(j))))
     return sorted(pairs)
 
 
-def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, view_dirs: np.ndarray,
-            work_dir: Path, *, exhaustive_limit: int = 80, neighbours: int = 20, max_features: int = 8192, first_octave: int = 0,
+def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, pairs: list[tuple[int, int]],
+            work_dir: Path, *, exhaustive_limit: int = 80, max_features: int = 8192, first_octave: int = 0,
             peak_threshold: float = 0.004,
             threads: int = -1,
             seed: int = 0, progress=None) -> SfmResult:
-    """Features, matching and incremental mapping over the photos ``names`` in ``image_dir``."""
+    """Features, matching and incremental mapping over the photos ``names`` in ``image_dir``;
+    above ``exhaustive_limit`` photos only the given ``pairs`` (indices into ``names``) are matched."""
     import time
 
     pycolmap = require_pycolmap()
@@ -110,7 +125,6 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
             pycolmap.match_exhaustive(database, matching_options=matching, device=pycolmap.Device.cpu)
         else:
             pairs_file = work_dir / "pairs.txt"
-            pairs = neighbour_pairs(true_centres, view_dirs, neighbours)
             pairs_file.write_text("".join(f"{names[i]} {names[j]}\n" for i, j in pairs))
             pairing = pycolmap.ImportedPairingOptions()
             pairing.match_list_path = pairs_file

@@ -131,11 +131,16 @@ class PhotoRenderer:
 
     def render(self, position, heading_deg: float, pitch_deg: float) -> np.ndarray:
         """One photo as a (height, width) uint8 array."""
+        return self.render_with_points(position, heading_deg, pitch_deg)[0]
+
+    def render_with_points(self, position, heading_deg: float, pitch_deg: float, every: int = 7):
+        """One photo and the scene points seen by every ``every``-th pixel (for pairing)."""
         dirs = self.photo.rays(heading_deg, pitch_deg)
         origin = np.broadcast_to(np.asarray(position, dtype=float), dirs.shape)
         dist, mesh, face = self.rays.first_hit(origin, dirs)
         img = np.full(len(dirs), _SKY)
         hit = np.flatnonzero(mesh >= 0)
+        seen = np.zeros((0, 3))
         if len(hit):
             pts = origin[hit] + dirs[hit] * dist[hit, None]
             albedo = np.empty(len(hit))
@@ -148,4 +153,5 @@ class PhotoRenderer:
             normal *= -np.sign(np.einsum("ij,ij->i", normal, dirs[hit]))[:, None]
             shade = 0.6 + 0.4 * np.clip(normal @ _SUN, 0.0, 1.0)
             img[hit] = (0.08 + 0.92 * texture(pts, self.finest, self.lattice)) * albedo * shade
-        return np.clip(img * 255.0, 0, 255).astype(np.uint8).reshape(self.photo.height, self.photo.width)
+            seen = pts[::every]
+        return np.clip(img * 255.0, 0, 255).astype(np.uint8).reshape(self.photo.height, self.photo.width), seen
