@@ -20,7 +20,7 @@ from .orientation import camera_axes
 
 def imaging_pairs(positions, headings, pitches, camera, points, normals, rays, *,
                   max_range: float, max_incidence_deg: float, shrink: float = 0.0,
-                  offset: float = 1e-3, cameras_per_chunk: int = 64, progress=None):
+                  offset: float = 1e-3, cameras_per_chunk: int = 8, progress=None):
     """All (camera, point) pairs where the camera images the point, with their ranges.
 
     Cameras are taken in spatially compact chunks; each chunk's candidate points come from one
