@@ -119,6 +119,17 @@ ROWS = {
     "geographic export without a CRS": (lambda t: ["plan", L, *PLAN, "--export", "kml", "-o", t / "r.json"],
                                         ["georeference", "--crs"]),
     "output exists": (lambda t: ["plan", L, *PLAN, "-o", file_with(t, "r.json", "{}")], ["--force"]),
+    "mission without camera, GSD or security": (
+        lambda t: ["evaluate", file_with(t, "m.plan", "{}"), "--target", L], ["m.plan", "--gsd", "--camera"]),
+    "mission that is not a mission": (
+        lambda t: ["evaluate", file_with(t, "m.plan", '{"fileType": "Plan"}'), "--target", L, "--crs", "EPSG:25832",
+                   *PLAN], ["m.plan", "not a QGroundControl plan"]),
+    "mission of an unknown format": (lambda t: ["evaluate", file_with(t, "m.kml", "<kml/>"), "--target", L, *PLAN],
+                                     ["m.kml", "not a route or mission"]),
+    "mission beside a scene without georeference": (
+        lambda t: ["evaluate", file_with(t, "w.waypoints", "QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t48.7\t9.1\t250\t1\n"
+                                          "1\t0\t3\t16\t0\t0\t0\t0\t48.7\t9.1\t10\t1\n"),
+                   "--target", L, *PLAN], ["no georeference", "--crs"]),
 }
 
 

@@ -98,12 +98,23 @@ def cmd_cameras(args) -> int:
 
 def cmd_evaluate(args) -> int:
     from .evaluate import evaluate
+    from .progress import Progress
     from .route import Route
     if args.spacing is not None:
         check_positive("--spacing", args.spacing)
-    route = Route.load(args.route)
     scene = _scene(args)
-    ev = evaluate(route, scene, spacing=args.spacing)
+    if args.route.lower().endswith(".json"):
+        if args.gsd is not None or args.security is not None:
+            raise ParameterError("a route file carries its own camera, GSD and security distance; "
+                                 "--camera/--gsd/--security are for missions from other apps")
+        route = Route.load(args.route)
+    else:
+        route = _mission_route(args, scene)
+    progress = Progress(bars=not args.json)
+    with progress.stage("evaluate", total=len(route.shots), unit="shot") as update:
+        ev = evaluate(route, scene, spacing=args.spacing, progress=update)
+    for note in route.extra.get("notes", []) if route.extra.get("source") else []:
+        print(f"coverplan: {note}", file=sys.stderr)
     if args.json:
         print(json.dumps(ev.metrics, indent=1, default=float))
     else:
@@ -118,6 +129,20 @@ def cmd_evaluate(args) -> int:
             print(f"coverplan: strict check failed: {'; '.join(failed)}", file=sys.stderr)
             return 1
     return 0
+
+
+def _mission_route(args, scene):
+    """A QGroundControl / Mission Planner / Litchi mission as a route in the scene's frame."""
+    from .io import read_mission
+    from .io.missions import mission_to_route
+    missing = [flag for flag, v in (("--gsd", args.gsd), ("--security", args.security)) if v is None]
+    if missing or not (args.camera or args.sensor_mm):
+        need = missing + ([] if (args.camera or args.sensor_mm) else ["--camera"])
+        raise ParameterError(f"{args.route} is a mission from another app: give {', '.join(need)} "
+                             "(the camera it flies, the GSD and security distance to judge it by)")
+    mission = read_mission(args.route)
+    return mission_to_route(mission, scene, _camera(args), check_positive("--gsd", args.gsd),
+                            check_positive("--security", args.security))
 
 
 def _add_camera_args(p):
@@ -357,11 +382,18 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("cameras", help="list the camera presets")
     p.set_defaults(func=cmd_cameras)
 
-    p = sub.add_parser("evaluate", help="check a route's coverage and safety against a scene")
-    p.add_argument("route", metavar="ROUTE.json")
+    p = sub.add_parser("evaluate", help="check a route's or another app's mission's coverage and safety")
+    p.add_argument("route", metavar="ROUTE",
+                   help="a coverplan route (.json) or a mission: QGroundControl .plan, QGC WPL .waypoints, "
+                        "Litchi .csv (docs/evaluate.md)")
     _add_scene_args(p, targets_positional=False)
+    _add_camera_args(p)
+    p.add_argument("--gsd", type=float, default=None, metavar="M_PER_PX",
+                   help="for missions: the GSD to judge the photos by")
+    p.add_argument("--security", type=float, default=None, metavar="M",
+                   help="for missions: the security distance to judge the flight by")
     p.add_argument("--spacing", type=float, default=None, metavar="M",
-                   help="surface sample spacing in metres (default: the planner's, else d_opt/8)")
+                   help="surface sample spacing in metres (default 0.25, with a seed the planner does not use)")
     p.add_argument("--json", action="store_true", help="print the metrics as JSON")
     p.add_argument("--strict", action="store_true",
                    help="exit 1 when the route is unsafe or coverage is below --min-coverage")
@@ -474,6 +506,10 @@ def main(argv=None) -> int:
     except KeyboardInterrupt:
         print("coverplan: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # output piped into a reader that stopped early (| head)
+        import os
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
 
 
 if __name__ == "__main__":

@@ -165,7 +165,10 @@ class Route:
             h, p = wp.get("heading_deg"), wp.get("gimbal_pitch_deg")
             vd = wp.get("view_dir")
             if vd is None and (h is None or p is None):
-                raise RouteFormatError(path, f"waypoint {k} has neither view_dir nor heading_deg/gimbal_pitch_deg")
+                if shot[-1]:
+                    raise RouteFormatError(path, f"waypoint {k} is a photo but has neither view_dir nor "
+                                                 "heading_deg/gimbal_pitch_deg")
+                h, p = 0.0, 0.0  # a waypoint without a photo needs no orientation
             if h is not None and not _finite(h) or p is not None and not _finite(p):
                 raise RouteFormatError(path, f"waypoint {k} heading/pitch must be finite numbers")
             vd = _vector(vd, f"waypoint {k} view_dir", path) if vd is not None else None

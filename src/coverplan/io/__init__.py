@@ -33,6 +33,7 @@ Reader = Callable[..., MeshSource]
 Writer = Callable[..., list[Path]]
 
 _READERS: dict[str, Reader] = {}
+_MISSION_READERS: dict[str, Callable] = {}
 _WRITERS: dict[str, tuple[Writer, str]] = {}
 
 
@@ -49,6 +50,38 @@ def register_writer(name: str, suffix: str):
         _WRITERS[name] = (func, suffix)
         return func
     return wrap
+
+
+def register_mission_reader(*extensions: str):
+    """Readers of flight-app missions (io/missions.py): path -> Mission."""
+    def wrap(func):
+        for ext in extensions:
+            _MISSION_READERS[ext.lower()] = func
+        return func
+    return wrap
+
+
+def mission_extensions() -> list[str]:
+    _load_plugins()
+    return sorted(_MISSION_READERS)
+
+
+def read_mission(path):
+    """Read a QGroundControl / Mission Planner / Litchi mission; errors name the file."""
+    _load_plugins()
+    path = Path(path)
+    if not path.exists():
+        raise InputFileError(path, "no such file")
+    if path.is_dir() or path.stat().st_size == 0:
+        raise InputFileError(path, "is a directory" if path.is_dir() else "is empty")
+    reader = _MISSION_READERS.get(path.suffix.lower().lstrip("."))
+    if reader is None:
+        raise InputFileError(path, f"is not a route or mission file; give a coverplan route (.json) or a mission: "
+                                   f"{', '.join('.' + e for e in mission_extensions())}")
+    try:
+        return reader(path)
+    except UnicodeDecodeError:
+        raise InputFileError(path, "is not UTF-8 text") from None
 
 
 def _extension(path: Path) -> str:

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import register_writer, write_atomic
+from . import register_mission_reader, register_writer, write_atomic
 from .flight import geo_flight
 
 MAX_WAYPOINTS = 99
@@ -65,3 +65,79 @@ def write_litchi(route, path, speed: float = 5.0, **_ignored) -> list[Path]:
         target = path if n == 1 else path.with_name(path.name.replace(".litchi.csv", f".litchi.{n}.csv"))
         written.append(write_atomic(target, buffer.getvalue()))
     return written
+
+
+# -- reading, for the evaluator ------------------------------------------------------------
+
+def _litchi_rows(path):
+    from ..errors import InputFileError
+
+    text = Path(path).read_text(encoding="utf-8-sig")
+    rows = list(csv.reader(io.StringIO(text)))
+    if not rows or [c.strip() for c in rows[0][:4]] != HEADER[:4]:
+        raise InputFileError(path, "is not a Litchi mission CSV (header latitude,longitude,altitude(m),heading(deg),...)")
+    head = [c.strip() for c in rows[0]]
+    return head, [r for r in rows[1:] if any(c.strip() for c in r)]
+
+
+def _parts(path: Path) -> list[Path]:
+    """NAME.litchi.csv and the missions our writer split off it (NAME.litchi.2.csv, ...)."""
+    parts = [path]
+    if path.name.lower().endswith(".litchi.csv"):
+        stem = path.name[: -len(".litchi.csv")]
+        n = 2
+        while (path.with_name(f"{stem}.litchi.{n}.csv")).exists():
+            parts.append(path.with_name(f"{stem}.litchi.{n}.csv"))
+            n += 1
+    return parts
+
+
+@register_mission_reader("csv")
+def read_litchi(path):
+    """A Litchi waypoint mission; split missions NAME.litchi.N.csv are read after NAME.litchi.csv.
+
+    Altitudes: altitudemode 0 is above the take-off point, 1 above the ground below the
+    waypoint, which on a flat site is the same; actions rotate the aircraft, tilt the gimbal
+    and take photos in order, the waypoint's own heading and gimbal pitch apply otherwise.
+    """
+    from ..errors import InputFileError
+    from .missions import TAKEOFF, MissionBuilder
+
+    path = Path(path)
+    parts = _parts(path)
+    b = MissionBuilder(path, "Litchi mission")
+    if len(parts) > 1:
+        b.notes.append(f"read {len(parts)} Litchi missions in a row: {', '.join(p.name for p in parts)}")
+    above_ground = False
+    curved = False
+    for part in parts:
+        head, rows = _litchi_rows(part)
+        col = {name: k for k, name in enumerate(head)}
+        for k, row in enumerate(rows, start=2):
+            def value(name, default=float("nan")):
+                try:
+                    return float(row[col[name]])
+                except (KeyError, IndexError, ValueError):
+                    return default
+            lat, lon, alt = value("latitude"), value("longitude"), value("altitude(m)")
+            if not np.isfinite([lat, lon, alt]).all():
+                raise InputFileError(part, f"line {k}: latitude, longitude and altitude(m) must be numbers")
+            above_ground |= value("altitudemode", 0.0) == 1
+            curved |= value("curvesize(m)", 0.0) > 0
+            if value("gimbalmode", 2.0) == 2:
+                b.pitch = value("gimbalpitchangle")
+            b.waypoint(lat, lon, alt, TAKEOFF, heading=value("heading(deg)"))
+            for a in range(1, MAX_ACTIONS + 1):
+                kind, param = value(f"actiontype{a}", NO_ACTION), value(f"actionparam{a}", 0.0)
+                if kind == ROTATE_AIRCRAFT:
+                    b.heading = param
+                elif kind == TILT_CAMERA:
+                    b.pitch = param
+                elif kind == TAKE_PHOTO:
+                    b.photo()
+    if above_ground:
+        b.notes.append("altitudes above ground (altitudemode 1) taken above the scene's flat ground")
+    if curved:
+        b.notes.append("curved turns (curvesize) are flown as straight lines between waypoints")
+    first = b.rows[0] if b.rows else None
+    return b.build(home=(first[0], first[1]) if first else None)

@@ -12,7 +12,9 @@ import json
 import math
 from pathlib import Path
 
-from . import register_writer, write_atomic
+import numpy as np
+
+from . import register_mission_reader, register_writer, write_atomic
 from .flight import geo_flight
 
 NAV_WAYPOINT, NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF = 16, 20, 22
@@ -85,3 +87,125 @@ def _wpl_row(index, current, frame, command, params) -> str:
     params = [0.0 if math.isnan(float(p)) else float(p) for p in params]
     values = [f"{p:.8f}" if k in (4, 5) else f"{p:.6f}" for k, p in enumerate(params)]
     return "\t".join([str(index), str(current), str(frame), str(command), *values, "1"])
+
+
+# -- reading: missions from QGroundControl / Mission Planner, for the evaluator -------------
+
+NAV_LAND, NAV_LOITER_TIME, CONDITION_YAW = 21, 19, 115
+DO_DIGICAM_CONTROL, DO_MOUNT_CONTROL = 203, 205
+_TAKEOFF_FRAMES = {3, 6}  # MAV_FRAME_GLOBAL_RELATIVE_ALT(_INT): above home
+_AMSL_FRAMES = {0, 5}  # MAV_FRAME_GLOBAL(_INT)
+_TERRAIN_FRAMES = {10, 11}
+_NAMES = {NAV_WAYPOINT: "waypoint", NAV_TAKEOFF: "take-off", NAV_LAND: "land", NAV_LOITER_TIME: "loiter"}
+
+
+def _number(v) -> float:
+    try:
+        return float("nan") if v is None else float(v)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
+def walk_items(items, home, path, source: str):
+    """A Mission from MAVLink mission items (command, frame, 7 params), in order.
+
+    Positions come from take-off, waypoint, loiter and land items; return-to-launch flies
+    back over home at the last height. Photos (IMAGE_START_CAPTURE for one image,
+    DO_DIGICAM_CONTROL) are taken at the last position with the last heading (the
+    waypoint's yaw or CONDITION_YAW) and gimbal pitch (gimbal manager or mount control).
+    """
+    from ..errors import InputFileError
+    from .missions import AMSL, TAKEOFF, MissionBuilder
+
+    b = MissionBuilder(path, source)
+    home_lat, home_lon = home
+    for n, (command, frame, params) in enumerate(items, start=1):
+        p = [_number(v) for v in (list(params) + [None] * 7)[:7]]
+        if command in _NAMES:
+            if frame in _TERRAIN_FRAMES:
+                raise InputFileError(path, f"item {n} gives its height above terrain (frame {frame}); "
+                                           "terrain-relative missions are not supported yet")
+            if frame not in _TAKEOFF_FRAMES | _AMSL_FRAMES:
+                raise InputFileError(path, f"item {n} ({_NAMES[command]}) uses MAVLink frame {frame}; "
+                                           "only global frames (0, 3, 5, 6) are supported")
+            lat, lon = p[4], p[5]
+            if command == NAV_TAKEOFF and (not np.isfinite(lat) or (lat == 0 and lon == 0)):
+                lat, lon = home_lat, home_lon  # take off where the vehicle stands
+            b.waypoint(lat, lon, p[6], TAKEOFF if frame in _TAKEOFF_FRAMES else AMSL,
+                       heading=p[3] if command == NAV_WAYPOINT else np.nan)
+        elif command == NAV_RETURN_TO_LAUNCH:
+            last = b.rows[-1] if b.rows else None
+            if last is not None and np.isfinite(home_lat) and max(abs(last[0] - home_lat), abs(last[1] - home_lon)) > 1e-6:
+                b.waypoint(home_lat, home_lon, last[2], last[3])
+                b.notes.append("return to launch flown straight back at the last height (the autopilot "
+                               "may first climb to its own return altitude)")
+        elif command == CONDITION_YAW:
+            if p[3] == 0 and np.isfinite(p[0]):  # absolute angle
+                b.heading = p[0]
+        elif command in (DO_GIMBAL_MANAGER_PITCHYAW, DO_MOUNT_CONTROL):
+            if np.isfinite(p[0]):
+                b.pitch = p[0]
+        elif command == IMAGE_START_CAPTURE:
+            if p[2] != 1:
+                raise InputFileError(path, f"item {n} starts timed or continuous capture; only single "
+                                           "photos (IMAGE_START_CAPTURE with 1 image) can be evaluated")
+            b.photo()
+        elif command == DO_DIGICAM_CONTROL:
+            b.photo()
+    return b
+
+
+@register_mission_reader("plan")
+def read_plan(path):
+    """A QGroundControl ``.plan`` mission (simple items only)."""
+    from ..errors import InputFileError
+
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise InputFileError(path, f"is not valid JSON ({exc.msg} at line {exc.lineno})") from None
+    mission = data.get("mission") if isinstance(data, dict) else None
+    if not isinstance(mission, dict) or data.get("fileType") != "Plan" or not isinstance(mission.get("items"), list):
+        raise InputFileError(path, "is not a QGroundControl plan (no fileType 'Plan' with mission items)")
+    home = mission.get("plannedHomePosition") or [None, None, None]
+    items = []
+    for n, item in enumerate(mission["items"], start=1):
+        if not isinstance(item, dict):
+            raise InputFileError(path, f"mission item {n} is not an object")
+        if item.get("type") == "ComplexItem":
+            raise InputFileError(path, f"mission item {n} is a {item.get('complexItemType', 'complex')} item; "
+                                       "only plain waypoints can be evaluated (QGroundControl computes the "
+                                       "others' waypoints itself)")
+        params = item.get("params")
+        if not isinstance(params, list) or not isinstance(item.get("command"), int):
+            raise InputFileError(path, f"mission item {n} has no command and params")
+        items.append((item["command"], int(item.get("frame", FRAME_GLOBAL_RELATIVE_ALT)), params))
+    b = walk_items(items, (_number(home[0]), _number(home[1])), path, "QGroundControl plan")
+    return b.build(home=(_number(home[0]), _number(home[1])))
+
+
+@register_mission_reader("waypoints", "txt")
+def read_wpl(path):
+    """A ``QGC WPL 110`` text mission (QGroundControl, Mission Planner); row 0 is home."""
+    from ..errors import InputFileError
+
+    lines = [ln for ln in Path(path).read_text(encoding="utf-8").splitlines() if ln.strip()]
+    if not lines or not lines[0].startswith("QGC WPL"):
+        raise InputFileError(path, "is not a 'QGC WPL 110' waypoint file (first line)")
+    rows = []
+    for k, line in enumerate(lines[1:], start=2):
+        cells = line.split()
+        if len(cells) < 11:
+            raise InputFileError(path, f"line {k} has {len(cells)} columns, expected 12")
+        try:
+            index, _current, frame, command = (int(c) for c in cells[:4])
+            params = [float(c) for c in cells[4:11]]
+        except ValueError:
+            raise InputFileError(path, f"line {k} holds a value that is not a number") from None
+        rows.append((index, frame, command, params))
+    if not rows or rows[0][0] != 0:
+        raise InputFileError(path, "has no home row (index 0)")
+    home = (rows[0][3][4], rows[0][3][5])
+    items = [(command, frame, params) for _i, frame, command, params in rows[1:]]
+    b = walk_items(items, home, path, "QGC WPL mission")
+    return b.build(home=home)

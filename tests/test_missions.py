@@ -1,0 +1,179 @@
+"""`coverplan evaluate` on missions of other apps: our own exports read back, and a
+QGroundControl plan written by hand, judged against independent geometry."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from conftest import MESHES, box
+from independent import polyline_min_distance
+from pyproj import Transformer
+
+from coverplan import Route, get_camera, load_scene, plan
+from coverplan.cli import main
+from coverplan.evaluate import evaluate
+from coverplan.io import read_mission
+from coverplan.io.missions import mission_to_route
+
+CRS = "EPSG:25832"
+GSD, SECURITY = 0.004, 3.0
+# A house near Stuttgart: the box's corner sits at these UTM 32N coordinates.
+EAST, NORTH, BASE = 512_300.0, 5_403_830.0, 250.0
+
+
+def metrics(capsys, argv) -> dict:
+    assert main(argv + ["--json"]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("missions")
+    stem = folder / "gabled"
+    assert main([
+        "plan", str(MESHES / "gabled_house.obj"), "--camera", "phantom4pro", "--gsd", str(GSD),
+        "--security", str(SECURITY), "--crs", CRS, "-o", f"{stem}.json", "--export", "qgc,wpl,litchi",
+        "--quiet", "--no-evaluate"]) == 0
+    return stem
+
+
+@pytest.mark.parametrize("suffix", [".plan", ".waypoints", ".litchi.csv"])
+def test_exported_missions_evaluate_like_the_route(exported, capsys, suffix):
+    scene = ["--target", str(MESHES / "gabled_house.obj"), "--crs", CRS]
+    ours = metrics(capsys, ["evaluate", f"{exported}.json", *scene])
+    theirs = metrics(capsys, ["evaluate", f"{exported}{suffix}", *scene, "--camera", "phantom4pro",
+                              "--gsd", str(GSD), "--security", str(SECURITY)])
+    assert theirs["shots"] == ours["shots"]
+    assert abs(theirs["coverage_pct"] - ours["coverage_pct"]) <= 0.1
+    assert abs(theirs["min_clearance_m"] - ours["min_clearance_m"]) <= 0.01
+    assert theirs["safe"] == ours["safe"] and theirs["shot_graph"]["components"] == ours["shot_graph"]["components"]
+
+
+def _utm_to_lonlat(x, y):
+    return Transformer.from_crs(CRS, "EPSG:4326", always_xy=True).transform(x, y)
+
+
+@pytest.fixture
+def house(tmp_path):
+    """A 10 x 8 x 6 m box placed in UTM coordinates, on ground at 250 m."""
+    mesh = box(0, 0, 0, 10, 8, 6)
+    mesh.apply_translation([EAST, NORTH, BASE])
+    path = tmp_path / "house.obj"
+    mesh.export(path)
+    return path
+
+
+def _hand_plan(path, waypoints, frame=3, home=(EAST - 20, NORTH - 20)):
+    """A QGroundControl plan as a person would draw it: take-off, waypoints with yaw, then for
+    the photos CONDITION_YAW, DO_MOUNT_CONTROL and DO_DIGICAM_CONTROL; return to launch."""
+    lon0, lat0 = _utm_to_lonlat(*home)
+    items = [{"type": "SimpleItem", "command": 22, "frame": frame, "params": [0, 0, 0, None, 0, 0, 8.0]}]
+    for x, y, alt, yaw, photo in waypoints:
+        lon, lat = _utm_to_lonlat(x, y)
+        items.append({"type": "SimpleItem", "command": 16, "frame": frame, "params": [0, 0, 0, None, lat, lon, alt]})
+        if photo:
+            items += [{"type": "SimpleItem", "command": 115, "frame": 2, "params": [yaw, 30, 0, 0, 0, 0, 0]},
+                      {"type": "SimpleItem", "command": 205, "frame": 2, "params": [-20, 0, 0, 0, 0, 0, 2]},
+                      {"type": "SimpleItem", "command": 203, "frame": 2, "params": [0, 0, 0, 0, 1, 0, 0]}]
+    items.append({"type": "SimpleItem", "command": 20, "frame": 2, "params": [0] * 7})
+    data = {"fileType": "Plan", "version": 1, "groundStation": "QGroundControl",
+            "mission": {"version": 2, "firmwareType": 12, "vehicleType": 2, "cruiseSpeed": 5, "hoverSpeed": 5,
+                        "plannedHomePosition": [lat0, lon0, BASE], "items": items},
+            "geoFence": {"version": 2, "circles": [], "polygons": []}, "rallyPoints": {"version": 2, "points": []}}
+    path.write_text(json.dumps(data))
+    return path
+
+
+def test_hand_written_qgc_plan(house, tmp_path, capsys):
+    # South of the house, 7 m off the wall, 8 m up: two photos facing north (yaw 0).
+    wps = [(EAST - 20, NORTH - 7, 8.0, None, False), (EAST + 2, NORTH - 7, 8.0, 0.0, True),
+           (EAST + 8, NORTH - 7, 8.0, 0.0, True), (EAST + 20, NORTH - 7, 8.0, None, False)]
+    mission_file = _hand_plan(tmp_path / "hand.plan", wps)
+    scene = load_scene(house, crs=CRS)
+    route = mission_to_route(read_mission(mission_file), scene, get_camera("phantom4pro"), GSD, SECURITY)
+    # Positions: take-off over home, the four waypoints, back over home; heights above the take-off ground.
+    expect = np.array([[EAST - 20, NORTH - 20, BASE + 8]] + [[x, y, BASE + a] for x, y, a, _h, _p in wps]
+                      + [[EAST - 20, NORTH - 20, BASE + 8]]) - np.asarray(scene.origin)
+    np.testing.assert_allclose(route.positions, expect, atol=0.01)
+    assert route.shot.tolist() == [False, False, True, True, False, False]
+    # CONDITION_YAW 0 is true north; in the UTM grid north differs by the convergence (< 1 deg here).
+    assert np.all(np.abs((route.heading_deg[route.shot] + 180) % 360 - 180) < 1.0)
+    np.testing.assert_allclose(route.pitch_deg[route.shot], -20.0)
+
+    ev = evaluate(route, scene)
+    independent = polyline_min_distance(route.positions, scene.meshes, 0.05)
+    assert ev.metrics["min_clearance_m"] == pytest.approx(independent, abs=0.02)
+    assert ev.safe and ev.metrics["shots"] == 2
+    # Two level photos of the south wall: it is imaged, the other walls are not.
+    south = ev.samples.normals[:, 1] < -0.9
+    assert (ev.views[south] > 0).mean() > 0.5 and (ev.views[~south] == 0).mean() > 0.9
+
+    # The same through the command line, one line on stderr for the notes, exit 0.
+    m = metrics(capsys, ["evaluate", str(mission_file), "--target", str(house), "--crs", CRS,
+                         "--camera", "phantom4pro", "--gsd", str(GSD), "--security", str(SECURITY)])
+    assert m["shots"] == 2 and m["safe"]
+
+
+def test_hand_written_plan_too_close_is_unsafe(house, tmp_path):
+    wps = [(EAST + 5, NORTH - 2, 3.0, 0.0, True)]  # 2 m from the south wall
+    scene = load_scene(house, crs=CRS)
+    route = mission_to_route(read_mission(_hand_plan(tmp_path / "close.plan", wps)), scene,
+                             get_camera("phantom4pro"), GSD, SECURITY)
+    ev = evaluate(route, scene)
+    assert not ev.safe
+    assert ev.metrics["min_clearance_m"] == pytest.approx(polyline_min_distance(route.positions, scene.meshes, 0.05),
+                                                          abs=0.02)
+
+
+@pytest.mark.parametrize("change, message", [
+    (lambda d: d["mission"]["items"].append({"type": "ComplexItem", "complexItemType": "StructureScan"}),
+     "StructureScan item"),
+    (lambda d: d["mission"]["items"][1].update(frame=10), "above terrain"),
+    (lambda d: d["mission"]["items"][1]["params"].__setitem__(4, 123.0), "not on Earth"),
+    (lambda d: d.update(fileType="Other"), "not a QGroundControl plan"),
+])
+def test_bad_missions_are_refused_in_one_line(house, tmp_path, capsys, change, message):
+    path = _hand_plan(tmp_path / "bad.plan", [(EAST - 5, NORTH - 7, 8.0, 0.0, True)])
+    data = json.loads(path.read_text())
+    change(data)
+    path.write_text(json.dumps(data))
+    code = main(["evaluate", str(path), "--target", str(house), "--crs", CRS, "--camera", "phantom4pro",
+                 "--gsd", str(GSD), "--security", str(SECURITY)])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and message in err and "Traceback" not in err and len(err.splitlines()) == 1
+
+
+def test_amsl_mission_needs_a_height_datum(house, tmp_path, capsys):
+    path = _hand_plan(tmp_path / "amsl.plan", [(EAST - 5, NORTH - 7, BASE + 8.0, 0.0, True)], frame=0)
+    code = main(["evaluate", str(path), "--target", str(house), "--crs", CRS, "--camera", "phantom4pro",
+                 "--gsd", str(GSD), "--security", str(SECURITY)])
+    assert code == 2 and "above sea level" in capsys.readouterr().err
+
+
+def test_mission_needs_camera_gsd_and_security(house, tmp_path, capsys):
+    path = _hand_plan(tmp_path / "m.plan", [(EAST - 5, NORTH - 7, 8.0, 0.0, True)])
+    assert main(["evaluate", str(path), "--target", str(house), "--crs", CRS]) == 2
+    err = capsys.readouterr().err
+    assert "--gsd" in err and "--camera" in err
+
+
+def test_route_waypoints_without_photo_need_no_orientation(tmp_path):
+    scene = load_scene(MESHES / "gabled_house.obj")
+    route = plan(scene, get_camera("thesis80"), gsd=0.01, security=SECURITY)
+    data = route.to_dict()
+    for wp in data["waypoints"]:
+        if not wp["shot"]:
+            for key in ("view_dir", "heading_deg", "gimbal_pitch_deg"):
+                wp.pop(key)
+    path = tmp_path / "bare.json"
+    path.write_text(json.dumps(data))
+    again = evaluate(Route.load(path), scene)
+    assert again.coverage_pct == pytest.approx(evaluate(route, scene).coverage_pct)
+    shot = next(wp for wp in data["waypoints"] if wp["shot"])
+    for key in ("view_dir", "heading_deg", "gimbal_pitch_deg"):
+        shot.pop(key)
+    path.write_text(json.dumps(data))
+    with pytest.raises(Exception, match="is a photo but has neither"):
+        Route.load(path)
