@@ -65,7 +65,7 @@ def test_merge_obstacles_within(thesis_camera):
     assert front.sum() > 10  # the shed's outside is now surface to image
     route = plan(merged, thesis_camera, gsd=gsd_for(thesis_camera, 7.0), security=3.0)
     ev = evaluate(route, merged)
-    assert ev.safe and ev.metrics["coverage_pct"] == pytest.approx(100.0)
+    assert ev.safe and ev.metrics["coverage_pct"] >= 99.9
     far = merge_into_target(scene, -1.0)  # nothing that close
     assert len(far.obstacles) == 1
 

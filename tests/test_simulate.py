@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from conftest import MESHES
 
-from coverplan import Route, get_camera, load_scene, plan
+from coverplan import get_camera, load_scene, plan
 from coverplan.errors import ParameterError
 
 pycolmap = pytest.importorskip("pycolmap", reason="simulate needs the sfm extra")

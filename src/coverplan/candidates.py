@@ -115,7 +115,7 @@ def along_normals(samples, limits: ViewLimits, camera, distance: float, tilt_deg
                   n_tilts: int = 4) -> Candidates:
     """Cameras at ``distance`` along each thinned sample's normal and tilted about it."""
     cell = max(camera.footprint(distance)[1] * 0.35, samples.spacing)
-    picked = _thin(samples.points, samples.normals, cell)
+    picked = thin(samples.points, samples.normals, cell)
     pts, nrm = samples.points[picked], samples.normals[picked]
     t1, t2 = tangent_frames(nrm)
     dirs = [nrm]
@@ -221,7 +221,7 @@ def _walk(ring_and_kind, step: float):
     return pts, normal
 
 
-def _thin(points, normals, cell: float) -> np.ndarray:
+def thin(points, normals, cell: float) -> np.ndarray:
     """Indices of one sample per (cell, normal octant): the one nearest the cell's centre."""
     key = np.column_stack([np.floor(points / cell).astype(np.int64), (normals > 0.3).astype(np.int64),
                            (normals < -0.3).astype(np.int64)])

@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from .camera import Camera, check_positive
-from .candidates import Candidates, along_normals, facade_rings, from_probes, keep_safe, standoff
+from .candidates import along_normals, facade_rings, from_probes, keep_safe, standoff
 from .errors import ParameterError, PlanningError
 from .orientation import heading_pitch
 from .pathing import (build_flight_graph, closure_hops, lattice_spacing, leg, shortcut,
@@ -21,14 +21,12 @@ from .progress import Progress
 from .reconstructability import MatchRule, connect_shots
 from .reachability import ViewLimits, reachability
 from .route import Route
-from .selection import coverage_state, select_views
+from .repair import MAX_ROUNDS, TARGET_PCT, CoverProblem, GapCloser
+from .selection import select_views
 from .surface import default_spacing, sample_surface
 from .tour import solve_tour
-from .visibility import has_pair_between, imaging_pairs, view_rays, visibility_matrix, widest_pair_angle
+from .visibility import has_pair_between, view_rays, widest_pair_angle
 
-# The planner holds itself to a slightly stricter rule than the evaluator, so coverage
-# still holds between its samples: 2 % off the frustum, range and incidence.
-SHRINK = 0.02
 MAX_LATTICE_NODES = 150_000
 
 
@@ -119,10 +117,20 @@ def default_start(scene, limits: ViewLimits, margin: float) -> np.ndarray:
     raise PlanningError("found no safe start point near the target; give one with --start X Y Z")
 
 
+MAX_START_DISTANCE_M = 5_000.0  # farther than any battery flies: a coordinate mix-up
+
+
 def check_start(scene, start, limits: ViewLimits, notes: list) -> np.ndarray:
     start = np.asarray(start, dtype=float).reshape(3)
     if not np.isfinite(start).all():
         raise ParameterError(f"start point must be three finite numbers, got {start.tolist()}")
+    lo, hi = scene.bounds("target")
+    away = float(np.linalg.norm(np.maximum(np.maximum(lo - start, start - hi), 0.0)))
+    if away > MAX_START_DISTANCE_M:
+        centre = scene.to_source((lo + hi) / 2.0)
+        raise ParameterError(
+            f"start point is {away / 1000:,.0f} km from the target; give it in the same coordinates as the input "
+            f"models (the target's centre is at {', '.join(f'{v:.1f}' for v in centre)})")
     if start[2] < limits.min_z:
         notes.append(f"start raised from z={start[2]:.2f} to the minimum altitude z={limits.min_z:.2f}")
         start = start.copy()
@@ -154,6 +162,8 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     ``rule`` "sfm" (default) plans for a reconstruction (reconstructability.py): ``min_views``
     3, a pair per sample that both triangulates and matches, and shots linked into one
     matchable set; "thesis" is the thesis's rule (``min_views`` 2, any pair wide enough).
+    ``start`` is in the scene's local frame (``scene.to_local`` moves a point of the input
+    models there); a start more than 5 km from the target is refused as a coordinate mix-up.
     Raises ParameterError / PlanningError (with a one-line message) on impossible settings;
     surface no safe position can image is planned around and listed in ``route.uncovered``.
     """
@@ -197,45 +207,52 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
             along_normals(samples, limits, camera, distance))
         cands = keep_safe(scene, cands, limits, margin)
 
-    def pairs_for(c: Candidates, update, shrink=SHRINK):
-        return imaging_pairs(c.positions, c.heading_deg, c.pitch_deg, camera, samples.points,
-                             samples.normals, scene.rays, max_range=d_opt,
-                             max_incidence_deg=max_incidence_deg, shrink=shrink,
-                             offset=scene.epsilon * 4, progress=update)
-
+    problem = CoverProblem(scene, camera, limits, samples, cands, (np.zeros(0, np.int64),) * 2 + (np.zeros(0),),
+                           reach.reachable)
     with progress.stage("visibility matrix", total=len(cands), unit="cam") as update:
-        pairs = pairs_for(cands, update)
-        # Samples the structured candidates leave short get candidates from their own probes.
-        needy = _short_samples(pairs, cands.positions, samples, min_views, min_triangulation_deg,
+        problem.pairs = problem.pairs_between(cands, samples, progress=update)
+        # Samples the structured candidates leave short get candidates from their own probes
+        # (judged without the margin: they serve samples only grazing views reach).
+        needy = _short_samples(problem.pairs, cands.positions, samples, min_views, min_triangulation_deg,
                                max_pair) & reach.reachable
-        extra = keep_safe(scene, from_probes(scene, samples, np.flatnonzero(needy), limits), limits, margin)
-        if len(extra):
-            # Probe shots serve samples only grazing views reach: judge them without the margin.
-            more = pairs_for(extra, None, shrink=0.0)
-            pairs = (np.concatenate([pairs[0], more[0] + len(cands)]), np.concatenate([pairs[1], more[1]]),
-                     np.concatenate([pairs[2], more[2]]))
-            cands = cands.concat(extra)
-    vis = visibility_matrix(len(cands), len(samples), pairs)
-    reach = reach.with_witnesses(np.bincount(pairs[1], minlength=len(samples)) > 0)
-    rays = _rays_in_csr_order(vis, pairs, cands.positions, samples.points)
+        problem.add_candidates(keep_safe(scene, from_probes(scene, samples, np.flatnonzero(needy), limits),
+                                         limits, margin))
+    vis, rays = problem.matrices()
+    reach = reach.with_witnesses(np.bincount(problem.pairs[1], minlength=len(samples)) > 0)
+    problem.reachable = reach.reachable
 
     with progress.stage("view selection", unit="shot") as update:
         selection = select_views(vis, rays, min_views, min_triangulation_deg, lp_time_limit=lp_time_limit,
                                  progress=update, max_pair_deg=max_pair)
     covering = len(selection.chosen)
+    lp_bound = selection.lp_bound
     if match is not None and len(selection.chosen):
         with progress.stage("linking shots for SfM"):
-            selection.chosen = connect_shots(vis, cands.positions, samples.points, selection.chosen, match)
-            selection.views, selection.satisfied = coverage_state(vis, rays, selection.chosen, min_views,
-                                                                  min_triangulation_deg, max_pair)
+            selection.chosen = connect_shots(vis, problem.cands.positions, samples.points, selection.chosen, match)
     chosen = selection.chosen
     if len(chosen) == 0:
         raise PlanningError("no safe viewpoint can image any part of the target: "
                             + (reach.reason[0] if len(reach.reason) and reach.reason[0] else
                                "check the security distance and GSD"))
-    uncovered = _uncovered(samples, selection, reach, pairs, cands.positions, min_views, min_triangulation_deg,
-                           max_pair)
-
+    with progress.stage("fine check and repair"):
+        closer = GapCloser(problem, min_views, min_triangulation_deg, max_pair, distance, margin,
+                           surface_classes=surface_classes)
+        check = closer.check(chosen)
+        history = [check.coverage_pct]
+        while check.coverage_pct < TARGET_PCT and len(history) <= MAX_ROUNDS and closer.extend(check):
+            vis, rays = problem.matrices()
+            before = len(chosen)
+            chosen = select_views(vis, rays, min_views, min_triangulation_deg, lp_time_limit=0,
+                                  max_pair_deg=max_pair, preset=chosen).chosen
+            if match is not None:
+                # Links are judged on the planner's own samples: the check samples crowd a few
+                # strips that hundreds of candidates see, which makes the pair products explode.
+                coarse = len(samples)
+                chosen = _link_new_shots(vis[:, :coarse], problem.cands.positions, samples.points, chosen,
+                                         before, match, d_opt)
+            check = closer.check(chosen)
+            history.append(check.coverage_pct)
+    cands = problem.cands
     shots = cands.subset(chosen)
     with progress.stage("lattice and Dijkstra"):
         specials = np.vstack([start, shots.positions])
@@ -250,18 +267,14 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     if not flyable.all():
         # Shots the start cannot reach (a pocket no safe path enters): drop them, and say what
         # their samples lose.
-        lost = int((~flyable[1:]).sum())
-        notes.append(f"{lost} shots have no safe path from the start and were dropped")
+        notes.append(f"{int((~flyable[1:]).sum())} shots have no safe path from the start and were dropped")
         chosen = chosen[flyable[1:]]
-        selection.views, selection.satisfied = coverage_state(vis, rays, chosen, min_views,
-                                                              min_triangulation_deg, max_pair)
-        selection.chosen = chosen
-        uncovered = _uncovered(samples, selection, reach, pairs, cands.positions, min_views,
-                               min_triangulation_deg, max_pair, lost_path=True)
+        check = closer.check(chosen)
         shots = cands.subset(chosen)
         specials = np.vstack([start, shots.positions])
         fg = build_flight_graph(scene, limits, specials, margin=margin, spacing=h, cost_weight=cost_weight)
         closure, pred, direct = shot_distances(fg, len(specials), limit)
+    uncovered = closer.uncovered(check, chosen, lost_path=not flyable.all())
     with progress.stage("tour"):
         order = solve_tour(closure)
     with progress.stage("legs"):
@@ -276,16 +289,19 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
                              "min_neighbours": match.min_neighbours})
     _final_check(route, scene, limits)
 
-    covered_area = float(samples.area[selection.satisfied & reach.reachable].sum())
-    reachable_area = float(samples.area[reach.reachable].sum())
+    fine = check.samples
     route.metrics = {
         "shots": int(route.shot.sum()),
         "selected_views": int(len(chosen)),
         "linking_shots": int(max(len(selection.chosen) - covering, 0)),
+        "repair_shots": int(max(len(chosen) - len(selection.chosen), 0)),
+        "repair_rounds": len(history) - 1,
+        "check_coverage_history_pct": history,
         "path_length_m": route.path_length,
-        "planned_coverage_pct": 100.0 * covered_area / reachable_area if reachable_area else 0.0,
-        "reachable_area_m2": reachable_area,
-        "surface_area_m2": samples.total_area,
+        "planned_coverage_pct": check.coverage_pct,
+        "check_spacing_m": fine.spacing,
+        "reachable_area_m2": float(fine.area[check.reachable].sum()),
+        "surface_area_m2": fine.total_area,
         "planning_time_s": time.perf_counter() - t0,
         "stage_seconds": dict(progress.timings),
         "candidates": int(len(cands)),
@@ -295,10 +311,23 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
         "lattice_spacing_m": h,
         "orbit_length_m": _orbit_length(scene, distance),
     }
-    if selection.lp_bound is not None:
-        route.metrics["lp_lower_bound_shots"] = selection.lp_bound
+    if lp_bound is not None:
+        route.metrics["lp_lower_bound_shots"] = lp_bound
     route.extra = {"notes": notes + list(scene.notes), "target_outline": _outline(scene)}
     return route
+
+
+def _link_new_shots(vis, positions, points, chosen, before: int, match: MatchRule, radius: float) -> np.ndarray:
+    """connect_shots after a repair round, over the chosen shots and the candidates within
+    ``radius`` of the new ones (linking over every candidate again costs seconds)."""
+    from scipy.spatial import cKDTree
+
+    if len(chosen) == before:
+        return chosen
+    near = np.isfinite(cKDTree(positions[chosen[before:]]).query(positions, distance_upper_bound=radius)[0])
+    pool = np.union1d(chosen, np.flatnonzero(near))
+    linked = connect_shots(vis[pool], positions[pool], points, np.searchsorted(pool, chosen), match)
+    return pool[linked]
 
 
 def _short_samples(pairs, positions, samples, min_views, min_tri, max_pair=None) -> np.ndarray:
@@ -310,41 +339,6 @@ def _short_samples(pairs, positions, samples, min_views, min_tri, max_pair=None)
     if max_pair is not None:
         short |= ~has_pair_between(pt, rays, len(samples), min_tri, max_pair)
     return short
-
-
-def _rays_in_csr_order(vis, pairs, positions, points) -> np.ndarray:
-    """Unit rays sample -> camera aligned with ``vis.data`` (row-major, sorted columns)."""
-    cam, pt, _ = pairs
-    order = np.lexsort((pt, cam))
-    vis.sort_indices()
-    return view_rays(cam[order], pt[order], positions, points)
-
-
-def _uncovered(samples, selection, reach, pairs, positions, min_views, min_tri, max_pair=None,
-               lost_path: bool = False) -> list[dict]:
-    cam, pt, _ = pairs
-    possible = np.bincount(pt, minlength=len(samples))
-    rays = view_rays(cam, pt, positions, samples.points)
-    widest = widest_pair_angle(pt, rays, len(samples))
-    matchable = has_pair_between(pt, rays, len(samples), min_tri, max_pair)
-    out = []
-    for k in np.flatnonzero(~selection.satisfied):
-        if not reach.reachable[k]:
-            reason = reach.reason[k]
-        elif possible[k] < min_views:
-            reason = f"only {possible[k]} safe viewpoint(s) found that image it (needs {min_views})"
-        elif widest[k] < min_tri:
-            reason = f"its safe views are all within {widest[k]:.1f} deg of each other (needs {min_tri:g})"
-        elif not matchable[k]:
-            reason = (f"no two of its safe views are between {min_tri:g} and {max_pair:g} deg apart "
-                      "(a pair that triangulates and still matches)")
-        elif lost_path:
-            reason = "its viewpoints have no safe path from the start point"
-        else:
-            reason = "not covered by the selected shots"
-        out.append({"position": samples.points[k].tolist(), "normal": samples.normals[k].tolist(),
-                     "area_m2": float(samples.area[k]), "reason": reason})
-    return out
 
 
 def _fly(fg, order, pred, direct, scene, limits, margin) -> list[tuple[np.ndarray, int]]:

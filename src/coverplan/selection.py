@@ -33,12 +33,14 @@ class Selection:
 
 
 def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_tri_deg: float,
-                 lp_time_limit: float = 20.0, progress=None, max_pair_deg: float | None = None) -> Selection:
+                 lp_time_limit: float = 20.0, progress=None, max_pair_deg: float | None = None,
+                 preset=None) -> Selection:
     """Pick candidates (rows of ``vis``) covering the samples (columns).
 
     ``rays`` holds, in the order of ``vis.data``, the unit vector from sample to camera.
     ``lp_time_limit`` <= 0 skips the LP (plain greedy). With ``max_pair_deg`` the pair that
     covers a sample must also be at most that wide (views SfM can match), not only wide enough.
+    ``preset`` candidates are taken first and kept (the result starts with them).
     """
     vis = vis.tocsr()
     vis.sort_indices()
@@ -101,7 +103,12 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_tri_d
 
     chosen: list[int] = []
     taken = np.zeros(n_cand, dtype=bool)
-    for j in np.flatnonzero(x >= _SEED)[np.argsort(-x[x >= _SEED], kind="stable")]:
+    fixed = [] if preset is None else [int(j) for j in preset]
+    for j in fixed:
+        take(j)
+        taken[j] = True
+        chosen.append(j)
+    for j in np.flatnonzero((x >= _SEED) & ~taken)[np.argsort(-x[x >= _SEED], kind="stable")]:
         take(j)
         taken[j] = True
         chosen.append(int(j))
@@ -135,7 +142,7 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_tri_d
         if progress is not None:
             progress(1)
     chosen_arr = prune_redundant(vis, rays, np.array(chosen, dtype=np.int64), min_views, min_tri_deg,
-                                 max_pair_deg)
+                                 max_pair_deg, fixed=len(fixed))
     views, satisfied = coverage_state(vis, rays, chosen_arr, min_views, min_tri_deg, max_pair_deg)
     return Selection(chosen_arr, views, satisfied, bound)
 
@@ -150,15 +157,16 @@ def coverage_state(vis: sp.csr_matrix, rays: np.ndarray, chosen, min_views: int,
 
 
 def prune_redundant(vis, rays, chosen, min_views: int, min_tri_deg: float,
-                    max_pair_deg: float | None = None) -> np.ndarray:
-    """Drop chosen candidates, earliest-picked last, whose removal uncovers no covered sample."""
+                    max_pair_deg: float | None = None, fixed: int = 0) -> np.ndarray:
+    """Drop chosen candidates, earliest-picked last, whose removal uncovers no covered sample;
+    the first ``fixed`` are kept whatever."""
     keep = np.ones(len(chosen), dtype=bool)
     _views, covered = coverage_state(vis, rays, chosen, min_views, min_tri_deg, max_pair_deg)
     indptr, indices = vis.indptr, vis.indices
     # Per sample, the chosen views that image it (rows of a chosen x samples matrix, by column).
     rows, cols, ray = _rows(vis, rays, chosen)
     by_sample = sp.csc_matrix((np.arange(len(rows)) + 1, (rows, cols)), shape=(len(chosen), vis.shape[1]))
-    for k in range(len(chosen) - 1, -1, -1):
+    for k in range(len(chosen) - 1, fixed - 1, -1):
         j = chosen[k]
         s = indices[indptr[j]:indptr[j + 1]]
         s = s[covered[s]]
