@@ -53,3 +53,16 @@ def write_mesh(tmp_path):
 
 
 np.set_printoptions(precision=4, suppress=True)
+
+
+# A house near Stuttgart: a 10 x 8 x 6 m box whose corner sits at these UTM 32N coordinates.
+UTM_EAST, UTM_NORTH, UTM_BASE = 512_300.0, 5_403_830.0, 250.0
+
+
+def utm_house(tmp_path, base: float = UTM_BASE):
+    """The box in EPSG:25832 coordinates, written as an OBJ; returns its path."""
+    mesh = box(0, 0, 0, 10, 8, 6)
+    mesh.apply_translation([UTM_EAST, UTM_NORTH, base])
+    path = tmp_path / "house.obj"
+    mesh.export(path)
+    return path

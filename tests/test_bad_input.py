@@ -80,6 +80,8 @@ ROWS = {
                                              _big_box(t), *PLAN, "-o", t / "r.json"], ["buried"]),
     "start inside a mesh": (lambda t: ["plan", L, *PLAN, "--start", "20", "20", "4", "-o", t / "r.json"],
                             ["inside", "l_prism"]),
+    "start far from the target": (lambda t: ["plan", L, *PLAN, "--start", "512300", "5403830", "4", "-o", t / "r.json"],
+                                  ["km from the target", "same coordinates as the input"]),
     "start within the security distance": (lambda t: ["plan", L, *PLAN, "--start", "13", "25", "4", "-o", t / "r.json"],
                                            ["closer than the security distance"]),
     "GSD finer than the security distance allows": (

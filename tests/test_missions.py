@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 import pytest
-from conftest import MESHES, box
+from conftest import MESHES, UTM_BASE, UTM_EAST, UTM_NORTH, utm_house
 from independent import polyline_min_distance
 from pyproj import Transformer
 
@@ -19,8 +19,7 @@ from coverplan.io.missions import mission_to_route
 
 CRS = "EPSG:25832"
 GSD, SECURITY = 0.004, 3.0
-# A house near Stuttgart: the box's corner sits at these UTM 32N coordinates.
-EAST, NORTH, BASE = 512_300.0, 5_403_830.0, 250.0
+EAST, NORTH, BASE = UTM_EAST, UTM_NORTH, UTM_BASE
 
 
 def metrics(capsys, argv) -> dict:
@@ -58,11 +57,7 @@ def _utm_to_lonlat(x, y):
 @pytest.fixture
 def house(tmp_path):
     """A 10 x 8 x 6 m box placed in UTM coordinates, on ground at 250 m."""
-    mesh = box(0, 0, 0, 10, 8, 6)
-    mesh.apply_translation([EAST, NORTH, BASE])
-    path = tmp_path / "house.obj"
-    mesh.export(path)
-    return path
+    return utm_house(tmp_path)
 
 
 def _hand_plan(path, waypoints, frame=3, home=(EAST - 20, NORTH - 20)):

@@ -181,7 +181,9 @@ def cmd_plan(args) -> int:
     if set(formats) & GEOGRAPHIC and not (scene.crs or scene.geodetic_origin):
         raise ParameterError(f"{', '.join(sorted(set(formats) & GEOGRAPHIC))} export needs a georeference: "
                              "the input has no CRS; pass --crs EPSG:XXXX or --geo-origin LAT LON H")
-    route = plan(scene, camera, gsd=args.gsd, security=args.security, start=args.start,
+    # --start is in the input models' coordinates, like the meshes: move it with them.
+    start = None if args.start is None else scene.to_local(args.start)
+    route = plan(scene, camera, gsd=args.gsd, security=args.security, start=start,
                  min_views=args.min_views, min_triangulation_deg=args.min_triangulation_deg,
                  rule=args.rule, match=_match_rule(args),
                  max_incidence_deg=args.max_incidence_deg, min_altitude=args.min_altitude,
@@ -407,7 +409,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--security", type=float, required=True, metavar="M",
                    help="security distance to keep from every mesh")
     p.add_argument("--start", nargs=3, type=float, default=None, metavar=("X", "Y", "Z"),
-                   help="start and end point (default: just outside the shot region, north-west)")
+                   help="start and end point, in the input models' coordinates (default: just outside "
+                        "the shot region, north-west)")
     p.add_argument("--rule", choices=["sfm", "thesis"], default="sfm",
                    help="sfm (default): plan for a reconstruction (docs/reconstruction.md); "
                         "thesis: 2 views 5 deg apart, the thesis's rule, for comparison")

@@ -117,6 +117,10 @@ class Scene:
         """Local coordinates back to the source frame."""
         return np.asarray(points, dtype=float) + self.origin
 
+    def to_local(self, points) -> np.ndarray:
+        """Points in the input models' coordinates (metres) into the local frame."""
+        return np.asarray(points, dtype=float) - self.origin
+
 
 def _part_name(path, raw: str, many: bool) -> str:
     stem = Path(path).name.split(".")[0] or Path(path).stem
