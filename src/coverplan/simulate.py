@@ -21,7 +21,7 @@ from .sfm.render import PhotoCamera, PhotoRenderer
 
 DEFAULT_WIDTH_PX = 1024
 JUDGE_SPACING_M = 0.1
-PAIRS_PER_PHOTO = 30  # matched per photo in flights too large for exhaustive matching
+PAIRS_PER_PHOTO = 60  # matched per photo in flights too large for exhaustive matching (30 split fig411)
 # Reconstructable (DESIGN.md): one model holding >= 98 % of the photos, >= 95 % of the
 # surface within 0.2 m of a 3D point and >= 90 % in every class.
 REGISTERED_MIN = 0.98
