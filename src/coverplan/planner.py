@@ -249,7 +249,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
                 # strips that hundreds of candidates see, which makes the pair products explode.
                 coarse = len(samples)
                 chosen = _link_new_shots(vis[:, :coarse], problem.cands.positions, samples.points, chosen,
-                                         before, match, d_opt)
+                                         before, match, 0.5 * d_opt)
             check = closer.check(chosen)
             history.append(check.coverage_pct)
     cands = problem.cands
