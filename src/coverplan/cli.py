@@ -319,14 +319,16 @@ def plan_summary(route, speed: float, shot_seconds: float) -> str:
                                       if m.get("lp_lower_bound_shots") else "")),
         ("path length", f"{route.path_length:,.1f} m  (one orbit at the standoff: {m['orbit_length_m']:,.1f} m)"),
         ("flight time", f"{minutes:.1f} min at {speed:g} m/s, {shot_seconds:g} s per shot"),
-        ("coverage (planned)", f"{m['planned_coverage_pct']:.2f} % of the reachable surface"),
+        ("coverage (planned)", f"{m['planned_coverage_pct']:.2f} % of the reachable surface"
+                               + (f", checked every {m['check_spacing_m']:.2f} m" if m.get("check_spacing_m") else "")),
         ("uncovered samples", f"{len(route.uncovered)}"),
         ("d_opt / standoff", f"{m['d_opt_m']:.2f} m / {m['standoff_m']:.2f} m"),
         ("planning time", f"{m['planning_time_s']:.2f} s"),
     ]
     ev = m.get("evaluation")
     if ev:
-        rows.insert(4, ("coverage (evaluated)", f"{ev['coverage_pct']:.2f} %, p-outliers {ev['p_outliers']}"))
+        rows.insert(4, ("coverage (evaluated)", f"{ev['coverage_pct']:.2f} % on fresh samples every "
+                                                f"{ev['sample_spacing_m']:.2f} m, p-outliers {ev['p_outliers']}"))
         rows.insert(5, ("min clearance", f"{ev['min_clearance_m']:.2f} m (security {route.security:g} m)"
                                          + ("" if ev["safe"] else "  UNSAFE")))
     reasons: dict[str, float] = {}
