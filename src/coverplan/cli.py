@@ -113,8 +113,6 @@ def cmd_evaluate(args) -> int:
     progress = Progress(bars=not args.json)
     with progress.stage("evaluate", total=len(route.shots), unit="shot") as update:
         ev = evaluate(route, scene, spacing=args.spacing, progress=update)
-    for note in route.extra.get("notes", []) if route.extra.get("source") else []:
-        print(f"coverplan: {note}", file=sys.stderr)
     if args.json:
         print(json.dumps(ev.metrics, indent=1, default=float))
     else:
@@ -140,9 +138,11 @@ def _mission_route(args, scene):
         need = missing + ([] if (args.camera or args.sensor_mm) else ["--camera"])
         raise ParameterError(f"{args.route} is a mission from another app: give {', '.join(need)} "
                              "(the camera it flies, the GSD and security distance to judge it by)")
-    mission = read_mission(args.route)
-    return mission_to_route(mission, scene, _camera(args), check_positive("--gsd", args.gsd),
-                            check_positive("--security", args.security))
+    route = mission_to_route(read_mission(args.route), scene, _camera(args), check_positive("--gsd", args.gsd),
+                             check_positive("--security", args.security))
+    for note in route.extra["notes"]:  # what the file left open, and how it was read
+        print(f"coverplan: {note}", file=sys.stderr)
+    return route
 
 
 def _add_camera_args(p):

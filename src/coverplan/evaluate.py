@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .reachability import Reachability, ViewLimits, reachability
+from .reachability import ViewLimits, reachability
 from .route import Route
 from .surface import CLASS_NAMES, SurfaceSamples, check_spacing, sample_surface
 from .reconstructability import MatchRule, graph_summary, shot_links
@@ -119,15 +119,8 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
     near = np.minimum(seg_d[np.clip(shots - 1, 0, last)], seg_d[np.clip(shots, 0, last)])
     shot_safe = (near >= route.security) & ~inside[shots] & (positions[shots, 2] >= limits.min_z - 1e-9)
     witness = shot_safe[cam] & (rng <= route.d_opt) & (rule == "strict")
-    seen = np.bincount(pt[witness], minlength=n) > 0
     # Probing is the slow part: only samples no safe shot images need it.
-    reach = Reachability(seen.copy(), [""] * n)
-    rest = np.flatnonzero(~seen)
-    if len(rest):
-        probed = reachability(scene, samples.subset(rest), limits)
-        reach.reachable[rest] = probed.reachable
-        for k, why in zip(rest, probed.reason):
-            reach.reason[k] = why
+    reach = reachability(scene, samples, limits, known=np.bincount(pt[witness], minlength=n) > 0)
     ev = Evaluation(route, samples, views, widest, covered, reach.reachable, reach.reason, pairs,
                     seg_d, seg_mesh, inside)
     ev.metrics = _metrics(ev, scene, limits)

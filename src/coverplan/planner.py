@@ -207,8 +207,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
             along_normals(samples, limits, camera, distance))
         cands = keep_safe(scene, cands, limits, margin)
 
-    problem = CoverProblem(scene, camera, limits, samples, cands, (np.zeros(0, np.int64),) * 2 + (np.zeros(0),),
-                           reach.reachable)
+    problem = CoverProblem(scene, camera, limits, samples, cands)
     with progress.stage("visibility matrix", total=len(cands), unit="cam") as update:
         problem.pairs = problem.pairs_between(cands, samples, progress=update)
         # Samples the structured candidates leave short get candidates from their own probes
@@ -219,7 +218,6 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
                                          limits, margin))
     vis, rays = problem.matrices()
     reach = reach.with_witnesses(np.bincount(problem.pairs[1], minlength=len(samples)) > 0)
-    problem.reachable = reach.reachable
 
     with progress.stage("view selection", unit="shot") as update:
         selection = select_views(vis, rays, min_views, min_triangulation_deg, lp_time_limit=lp_time_limit,
@@ -274,7 +272,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
         specials = np.vstack([start, shots.positions])
         fg = build_flight_graph(scene, limits, specials, margin=margin, spacing=h, cost_weight=cost_weight)
         closure, pred, direct = shot_distances(fg, len(specials), limit)
-    uncovered = closer.uncovered(check, chosen, lost_path=not flyable.all())
+    uncovered = closer.uncovered(check, lost_path=not flyable.all())
     with progress.stage("tour"):
         order = solve_tour(closure)
     with progress.stage("legs"):

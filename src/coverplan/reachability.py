@@ -112,13 +112,14 @@ class Reachability:
 
 
 def reachability(scene, samples, limits: ViewLimits, n_directions: int = 48,
-                 range_fractions=(0.1, 0.4, 0.7, 1.0)) -> Reachability:
-    """Which samples some safe position within d_opt can image, and why not for the rest."""
+                 range_fractions=(0.1, 0.4, 0.7, 1.0), known=None) -> Reachability:
+    """Which samples some safe position within d_opt can image, and why not for the rest.
+    Samples ``known`` to be reachable (a safe viewpoint images them) are not probed."""
     points, normals = samples.points, samples.normals
     n = len(points)
-    reachable = np.zeros(n, dtype=bool)
+    reachable = np.zeros(n, dtype=bool) if known is None else np.array(known, dtype=bool)
     # Stage 1: straight out along the normal at mid range settles most samples.
-    everyone = np.arange(n)
+    everyone = np.flatnonzero(~reachable)
     owner, pos, rays = probe_positions(points, normals, everyone, limits, np.array([[0.0, 0.0, 1.0]]),
                                        [0.5])
     status, _ = test_probes(scene, points, normals, owner, pos, rays, limits)

@@ -12,7 +12,7 @@ more can be gained, or ``MAX_ROUNDS`` are done. What is left is reported with it
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -44,8 +44,7 @@ class CoverProblem:
     limits: ViewLimits
     samples: SurfaceSamples
     cands: Candidates
-    pairs: tuple  # (candidate, sample, range)
-    reachable: np.ndarray
+    pairs: tuple = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))  # (candidate, sample, range)
 
     def pairs_between(self, cands: Candidates, samples: SurfaceSamples, progress=None,
                       probe_shrink: float = 0.0) -> tuple:
@@ -73,14 +72,13 @@ class CoverProblem:
         self.cands = self.cands.concat(new)
         self.pairs = _join(self.pairs, (c + base, p, r))
 
-    def add_samples(self, new: SurfaceSamples, reachable: np.ndarray, probe_shrink: float = 0.0) -> None:
+    def add_samples(self, new: SurfaceSamples, probe_shrink: float = 0.0) -> None:
         if len(new) == 0:
             return
         c, p, r = self.pairs_between(self.cands, new, probe_shrink=probe_shrink)
         base = len(self.samples)
         self.samples = concat_samples(self.samples, new)
         self.pairs = _join(self.pairs, (c, p + base, r))
-        self.reachable = np.concatenate([self.reachable, reachable])
 
     def matrices(self) -> tuple[sp.csr_matrix, np.ndarray]:
         """The visibility matrix and, in its data order, the unit rays sample -> camera."""
@@ -108,9 +106,7 @@ class FineCheck:
     samples: SurfaceSamples
     covered: np.ndarray
     reachable: np.ndarray
-    reason: list
-    rounds: int = 0
-    history: list = field(default_factory=list)  # coverage % after each round
+    reason: np.ndarray  # per sample: "" when reachable, else the probes' reason
 
     @property
     def coverage_pct(self) -> float:
@@ -133,12 +129,16 @@ def planner_check_spacing(scene, plan_spacing: float) -> float:
     return min(check_spacing(scene), check_spacing(scene, plan_spacing / 2.0), check_spacing(scene, small))
 
 
+def check_samples(scene, spacing: float, surface_classes=None) -> SurfaceSamples:
+    """The planner's check samples at ``spacing`` (its own seed), of some classes or all."""
+    fine = sample_surface(scene, spacing, seed=PLANNER_CHECK_SEED)
+    return fine.of_classes(surface_classes) if surface_classes else fine
+
+
 def planner_check_samples(scene, route) -> SurfaceSamples:
     """The samples the planner checked ``route``'s shots on: ``route.uncovered`` lists some."""
     spacing = route.metrics.get("check_spacing_m") or planner_check_spacing(scene, route.params["sample_spacing_m"])
-    fine = sample_surface(scene, spacing, seed=PLANNER_CHECK_SEED)
-    classes = route.params.get("surface_classes")
-    return fine.of_classes(classes) if classes else fine
+    return check_samples(scene, spacing, route.params.get("surface_classes"))
 
 
 class GapCloser:
@@ -149,16 +149,15 @@ class GapCloser:
         self.p = problem
         self.min_views, self.min_tri, self.max_pair = min_views, min_tri, max_pair
         self.distance, self.margin = distance, margin
-        fine = sample_surface(problem.scene, planner_check_spacing(problem.scene, problem.samples.spacing),
-                              seed=PLANNER_CHECK_SEED)
-        self.fine = fine.of_classes(surface_classes) if surface_classes else fine
+        self.fine = check_samples(problem.scene, planner_check_spacing(problem.scene, problem.samples.spacing),
+                                  surface_classes)
         n = len(self.fine)
         # (shot candidate, fine sample, whether the view holds with CHECK_MARGIN to spare)
         self._views = [np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, bool)]
         self._checked = np.zeros(0, np.int64)
         self.reach_known = np.zeros(n, dtype=bool)
         self.reachable = np.zeros(n, dtype=bool)
-        self.reason = [""] * n
+        self.reason = np.full(n, "", dtype=object)
         self.column = np.full(n, -1, dtype=np.int64)  # fine sample -> column in the problem
 
     def check(self, chosen: np.ndarray) -> FineCheck:
@@ -192,12 +191,10 @@ class GapCloser:
         if len(unknown):
             r = reachability(self.p.scene, self.fine.subset(unknown), self.p.limits)
             self.reachable[unknown] = r.reachable
-            for k, why in zip(unknown, r.reason):
-                self.reason[k] = why
+            self.reason[unknown] = r.reason
             self.reach_known[unknown] = True
-        for k in np.flatnonzero(self.reachable):
-            self.reason[k] = ""
-        return FineCheck(self.fine, covered, self.reachable.copy(), list(self.reason))
+        self.reason[self.reachable] = ""  # a shot added later may image what the probes missed
+        return FineCheck(self.fine, covered, self.reachable.copy(), self.reason.copy())
 
     def _with_margin(self, c: Candidates, cam, pt, rng) -> np.ndarray:
         """Which imaging pairs hold with CHECK_MARGIN off the frustum, range and incidence."""
@@ -226,19 +223,18 @@ class GapCloser:
         extra = from_probes(self.p.scene, sub, seeds, limits).concat(
             along_normals(sub, limits, self.p.camera, self.distance))
         self.p.add_candidates(keep_safe(self.p.scene, extra, limits, self.margin))
-        self._add(todo, np.ones(len(todo), dtype=bool))
+        self._add(todo)
         return len(todo)
 
-    def _add(self, todo: np.ndarray, reachable: np.ndarray) -> None:
+    def _add(self, todo: np.ndarray) -> None:
         self.column[todo] = len(self.p.samples) + np.arange(len(todo))
         # Judged here as the check judges them, or repair would pick views the check rejects.
-        self.p.add_samples(self.fine.subset(todo), reachable, probe_shrink=CHECK_MARGIN)
+        self.p.add_samples(self.fine.subset(todo), probe_shrink=CHECK_MARGIN)
 
-    def uncovered(self, check: FineCheck, chosen: np.ndarray, lost_path: bool = False) -> list[dict]:
+    def uncovered(self, check: FineCheck, lost_path: bool = False) -> list[dict]:
         """Every missed check sample with its area and why: unreachable (the probes' reason),
         or what the candidates lack (too few views, no pair in the angle window)."""
-        todo = np.flatnonzero(check.missed & (self.column < 0))
-        self._add(todo, check.reachable[todo])
+        self._add(np.flatnonzero(check.missed & (self.column < 0)))
         missed = np.flatnonzero(check.missed)
         cols = self.column[missed]
         cam, pt, _ = self.p.pairs

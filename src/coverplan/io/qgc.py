@@ -107,7 +107,7 @@ def _number(v) -> float:
 
 
 def walk_items(items, home, path, source: str):
-    """A Mission from MAVLink mission items (command, frame, 7 params), in order.
+    """The Mission of MAVLink mission items (command, frame, 7 params), in order.
 
     Positions come from take-off, waypoint, loiter and land items; return-to-launch flies
     back over home at the last height. Photos (IMAGE_START_CAPTURE for one image,
@@ -152,7 +152,7 @@ def walk_items(items, home, path, source: str):
             b.photo()
         elif command == DO_DIGICAM_CONTROL:
             b.photo()
-    return b
+    return b.build(home=home)
 
 
 @register_mission_reader("plan")
@@ -180,8 +180,7 @@ def read_plan(path):
         if not isinstance(params, list) or not isinstance(item.get("command"), int):
             raise InputFileError(path, f"mission item {n} has no command and params")
         items.append((item["command"], int(item.get("frame", FRAME_GLOBAL_RELATIVE_ALT)), params))
-    b = walk_items(items, (_number(home[0]), _number(home[1])), path, "QGroundControl plan")
-    return b.build(home=(_number(home[0]), _number(home[1])))
+    return walk_items(items, (_number(home[0]), _number(home[1])), path, "QGroundControl plan")
 
 
 @register_mission_reader("waypoints", "txt")
@@ -207,5 +206,4 @@ def read_wpl(path):
         raise InputFileError(path, "has no home row (index 0)")
     home = (rows[0][3][4], rows[0][3][5])
     items = [(command, frame, params) for _i, frame, command, params in rows[1:]]
-    b = walk_items(items, home, path, "QGC WPL mission")
-    return b.build(home=home)
+    return walk_items(items, home, path, "QGC WPL mission")
