@@ -12,7 +12,7 @@ import trimesh
 
 from .errors import InputFileError, ParameterError
 from .geo import check_crs
-from .io import read_file
+from .io import MeshSource, read_file
 from .prepare import prepare_mesh
 
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "ft": 0.3048, "in": 0.0254}
@@ -127,7 +127,7 @@ def _part_name(path, raw: str, many: bool) -> str:
     return f"{stem}:{raw}" if many else stem
 
 
-def load_scene(targets: str | Path | Sequence[str | Path],
+def load_scene(targets: str | Path | MeshSource | Sequence[str | Path | MeshSource],
                obstacles: Iterable[str | Path] = (),
                *, units: str | None = None, ground: float | None = None,
                target_names: Sequence[str] | None = None,
@@ -142,14 +142,15 @@ def load_scene(targets: str | Path | Sequence[str | Path],
     ``context_radius`` metres become obstacles. ``ground`` is a height in metres in the source
     frame. Far-away coordinates are moved to a local origin (kept in ``Scene.origin``).
     ``crs`` names the projected CRS of mesh coordinates that carry none; ``geodetic_origin``
-    [lat, lon, h] places a local (east, north, up) mesh frame on Earth instead.
+    [lat, lon, h] places a local (east, north, up) mesh frame on Earth instead. A target may
+    also be a MeshSource already read (``coverplan batch`` reads a city file once).
     """
     if crs is not None and geodetic_origin is not None:
         raise ParameterError("give either a CRS or a geodetic origin, not both")
     user_crs = None if crs is None else check_crs(crs)
     if geodetic_origin is not None:
         geodetic_origin = _check_geodetic_origin(geodetic_origin)
-    if isinstance(targets, (str, Path)):
+    if isinstance(targets, (str, Path, MeshSource)):
         targets = [targets]
     targets = list(targets)
     if not targets:
@@ -165,7 +166,8 @@ def load_scene(targets: str | Path | Sequence[str | Path],
     found: set[str] = set()
     available: set[str] = set()
     for path in targets:
-        src = read_file(path, **options)
+        src = path if isinstance(path, MeshSource) else read_file(path, **options)
+        path = src.path or path
         notes += src.notes
         if src.crs and crs and src.crs != crs:
             raise ParameterError(f"{path} is in {src.crs} but {file_of_crs} is in {crs}; convert one of them")

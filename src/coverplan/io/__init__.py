@@ -27,6 +27,7 @@ class MeshSource:
     target_names: list[str] | None = None
     notes: list[str] = field(default_factory=list)
     vertical_crs: str | None = None  # heights' datum, when the file names one
+    path: Path | None = None  # the file it came from, when handed on already read
 
 
 Reader = Callable[..., MeshSource]
@@ -34,6 +35,7 @@ Writer = Callable[..., list[Path]]
 
 _READERS: dict[str, Reader] = {}
 _MISSION_READERS: dict[str, Callable] = {}
+_CITY_READERS: dict[str, Callable] = {}
 _WRITERS: dict[str, tuple[Writer, str]] = {}
 
 
@@ -48,6 +50,15 @@ def register_reader(*extensions: str):
 def register_writer(name: str, suffix: str):
     def wrap(func: Writer) -> Writer:
         _WRITERS[name] = (func, suffix)
+        return func
+    return wrap
+
+
+def register_city_reader(*extensions: str):
+    """Readers of whole city models (CityGML, CityJSON): path -> io.city.CityModel."""
+    def wrap(func):
+        for ext in extensions:
+            _CITY_READERS[ext.lower()] = func
         return func
     return wrap
 
@@ -92,9 +103,7 @@ def _extension(path: Path) -> str:
     return path.suffix.lower().lstrip(".")
 
 
-def read_file(path, **options) -> MeshSource:
-    """Read any supported scene file; errors name the file and the problem."""
-    _load_plugins()
+def _readable(path) -> Path:
     path = Path(path)
     if not path.exists():
         raise InputFileError(path, "no such file")
@@ -104,12 +113,30 @@ def read_file(path, **options) -> MeshSource:
         raise InputFileError(path, "cannot be read (permission denied)")
     if path.stat().st_size == 0:
         raise InputFileError(path, "is empty")
+    return path
+
+
+def read_file(path, **options) -> MeshSource:
+    """Read any supported scene file; errors name the file and the problem."""
+    _load_plugins()
+    path = _readable(path)
     ext = _extension(path)
     reader = _READERS.get(ext)
     if reader is None:
         raise InputFileError(
             path, f"unsupported format '.{ext}'; supported: {', '.join(supported_extensions())}")
     return reader(path, **options)
+
+
+def read_city_model(path):
+    """Read a whole CityGML / CityJSON file once (an io.city.CityModel)."""
+    _load_plugins()
+    path = _readable(path)
+    reader = _CITY_READERS.get(_extension(path))
+    if reader is None:
+        raise InputFileError(path, "is not a city model; give a CityGML (.gml) or CityJSON (.city.json, "
+                                   ".json, .jsonl, optionally .gz) file")
+    return reader(path)
 
 
 def open_maybe_gzip(path, mode: str = "rb"):

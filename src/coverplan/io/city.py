@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import re
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import mapbox_earcut
 import numpy as np
@@ -14,6 +15,7 @@ from ..errors import InputFileError, ParameterError
 from . import MeshSource
 
 DEFAULT_CONTEXT_RADIUS = 150.0
+BUILDING_KINDS = ("Building", "Bridge", "Tunnel")
 _EPSG = re.compile(r"EPSG(?:/|:)+(?:[0-9.]+[:/])?(\d{4,6})", re.IGNORECASE)
 
 
@@ -85,23 +87,16 @@ def triangulate_rings(rings: list[np.ndarray]) -> np.ndarray | None:
 
 @dataclass
 class CityObject:
-    """One top-level city object: id, type, its triangles per LoD, and the LoD chosen."""
+    """One top-level city object: id, type, name, its triangles per LoD and its attributes."""
 
     id: str
     kind: str
     name: str | None = None
     by_lod: dict = field(default_factory=dict)  # LoD -> list of (n, 3, 3) triangle arrays
-    triangles: list = field(default_factory=list)  # those of the chosen LoD
+    attributes: dict = field(default_factory=dict)  # the file's attributes of it, for --where
 
     def add(self, lod: int, triangles) -> None:
         self.by_lod.setdefault(lod, []).append(triangles)
-
-    def mesh(self) -> trimesh.Trimesh | None:
-        if not self.triangles:
-            return None
-        tri = np.vstack(self.triangles)
-        return trimesh.Trimesh(vertices=tri.reshape(-1, 3), faces=np.arange(3 * len(tri)).reshape(-1, 3),
-                               process=False)
 
 
 def pick_lod(available: set, requested: int | None, what: str, path) -> int:
@@ -120,55 +115,101 @@ def pick_lod(available: set, requested: int | None, what: str, path) -> int:
     return max(usable)
 
 
-def to_source(objects: list[CityObject], path, building: str | None, context_radius: float | None,
-              crs: tuple[str | None, str | None], skipped: int, lod: int | None = None) -> MeshSource:
-    """The target building and, within ``context_radius`` of it, every other object as obstacle.
+@dataclass
+class CityModel:
+    """Every city object of one CityGML/CityJSON file, read once: pick targets, neighbours,
+    footprints from it as often as needed (``coverplan batch`` plans many buildings of it)."""
 
-    The target is read at ``lod`` (default: its highest LoD of 1 or more); the others at the
-    same LoD where they have it, else at their highest.
-    """
-    with_geometry = [o for o in objects if any(k >= 1 for k in o.by_lod)]
-    if lod is not None and lod < 1:
-        pick_lod(set(), lod, "the file", path)
-    for o in with_geometry:
-        o.triangles = o.by_lod[lod if lod in o.by_lod else max(o.by_lod)]
-    buildings = [o for o in with_geometry if o.kind in ("Building", "Bridge", "Tunnel")]
-    if not with_geometry:
-        raise InputFileError(path, "holds no city object with 3D geometry")
-    if building is None:
-        if len(buildings) == 1:
-            target = buildings[0]
-        elif len(with_geometry) == 1:
-            target = with_geometry[0]
+    path: Path
+    objects: list[CityObject]
+    crs: tuple[str | None, str | None] = (None, None)
+    skipped: int = 0  # polygons that could not be triangulated
+    _bounds: dict = field(default_factory=dict, repr=False)  # LoD -> (n, 4) xy bounds
+
+    @property
+    def with_geometry(self) -> list[CityObject]:
+        return [o for o in self.objects if any(k >= 1 for k in o.by_lod)]
+
+    @property
+    def buildings(self) -> list[CityObject]:
+        """Objects one would plan a flight around: buildings, bridges, tunnels with 3D geometry."""
+        return [o for o in self.with_geometry if o.kind in BUILDING_KINDS]
+
+    def find(self, building: str) -> CityObject:
+        """The object whose id (or name) is ``building``; a ParameterError listing ids if none."""
+        for o in self.with_geometry:
+            if building in (o.id, o.name):
+                return o
+        raise ParameterError(
+            f"{self.path}: no city object with id {building!r}; ids in the file include "
+            f"{', '.join(o.id for o in self.buildings[:5] or self.with_geometry[:5])}")
+
+    def triangles(self, obj: CityObject, lod: int | None) -> np.ndarray:
+        """(n, 3, 3) triangles of ``obj`` at ``lod`` where it has it, else at its highest LoD."""
+        return np.vstack(obj.by_lod[lod if lod in obj.by_lod else max(obj.by_lod)])
+
+    def xy_bounds(self, lod: int | None) -> np.ndarray:
+        """(n, 4) [xmin, ymin, xmax, ymax] of every object with geometry, in that order."""
+        if lod not in self._bounds:
+            boxes = [(t := self.triangles(o, lod).reshape(-1, 3))[:, :2].min(axis=0).tolist()
+                     + t[:, :2].max(axis=0).tolist() for o in self.with_geometry]
+            self._bounds[lod] = np.asarray(boxes, dtype=float).reshape(-1, 4)
+        return self._bounds[lod]
+
+    def footprint(self, obj: CityObject, lod: int | None = None):
+        """The object's outline seen from above (a shapely polygon), in file coordinates."""
+        import shapely
+        tri = self.triangles(obj, lod)[:, :, :2]
+        polygons = shapely.polygons(tri)
+        polygons = polygons[shapely.area(polygons) > 1e-6]  # walls project to slivers
+        if not len(polygons):
+            return shapely.box(*tri.reshape(-1, 2).min(axis=0), *tri.reshape(-1, 2).max(axis=0))
+        return shapely.union_all(polygons, grid_size=1e-3).buffer(0)
+
+    def source(self, building: str | None = None, context_radius: float | None = None,
+               lod: int | None = None) -> MeshSource:
+        """The target building and, within ``context_radius`` of it, every other object as obstacle.
+
+        The target is read at ``lod`` (default: its highest LoD of 1 or more); the others at the
+        same LoD where they have it, else at their highest.
+        """
+        with_geometry = self.with_geometry
+        if lod is not None and lod < 1:
+            pick_lod(set(), lod, "the file", self.path)
+        if not with_geometry:
+            raise InputFileError(self.path, "holds no city object with 3D geometry")
+        buildings = self.buildings
+        if building is None:
+            if len(buildings) == 1:
+                target = buildings[0]
+            elif len(with_geometry) == 1:
+                target = with_geometry[0]
+            else:
+                raise ParameterError(
+                    f"{self.path}: {len(buildings)} buildings; choose one with --building ID "
+                    f"(for example {', '.join(o.id for o in buildings[:4])})")
         else:
-            raise ParameterError(
-                f"{path}: {len(buildings)} buildings; choose one with --building ID "
-                f"(for example {', '.join(o.id for o in buildings[:4])})")
-    else:
-        matches = [o for o in with_geometry if building in (o.id, o.name)]
-        if not matches:
-            raise ParameterError(
-                f"{path}: no city object with id {building!r}; ids in the file include "
-                f"{', '.join(o.id for o in buildings[:5] or with_geometry[:5])}")
-        target = matches[0]
-    chosen = pick_lod(set(target.by_lod), lod, f"{target.kind} {target.id}", path)
-    target.triangles = target.by_lod[chosen]
-    radius = DEFAULT_CONTEXT_RADIUS if context_radius is None else float(context_radius)
-    target_mesh = target.mesh()
-    lo, hi = target_mesh.bounds
-    meshes = [(target.id, target_mesh)]
-    for other in with_geometry:
-        if other is target:
-            continue
-        m = other.mesh()
-        olo, ohi = m.bounds
-        gap = np.maximum(np.maximum(olo[:2] - hi[:2], lo[:2] - ohi[:2]), 0.0)
-        if np.linalg.norm(gap) <= radius:
-            meshes.append((other.id, m))
-    notes = [f"{path.name}: target {target.kind} {target.id}, {len(meshes) - 1} city objects within "
-             f"{radius:g} m as obstacles"]
-    if skipped:
-        notes.append(f"{path.name}: skipped {skipped} polygons that could not be triangulated")
-    horizontal, vertical = crs
-    return MeshSource(meshes=meshes, crs=horizontal, target_names=[target.id], notes=notes,
-                      vertical_crs=vertical)
+            target = self.find(building)
+        chosen = pick_lod(set(target.by_lod), lod, f"{target.kind} {target.id}", self.path)
+        radius = DEFAULT_CONTEXT_RADIUS if context_radius is None else float(context_radius)
+        boxes = self.xy_bounds(lod)
+        tri = np.vstack(target.by_lod[chosen])
+        lo, hi = tri.reshape(-1, 3)[:, :2].min(axis=0), tri.reshape(-1, 3)[:, :2].max(axis=0)
+        gap = np.maximum(np.maximum(boxes[:, :2] - hi, lo - boxes[:, 2:]), 0.0)
+        near = np.linalg.norm(gap, axis=1) <= radius
+        meshes = [(target.id, _mesh(tri))]
+        meshes += [(o.id, _mesh(self.triangles(o, lod))) for o, keep in zip(with_geometry, near)
+                   if keep and o is not target]
+        name = Path(self.path).name
+        notes = [f"{name}: target {target.kind} {target.id}, {len(meshes) - 1} city objects within "
+                 f"{radius:g} m as obstacles"]
+        if self.skipped:
+            notes.append(f"{name}: skipped {self.skipped} polygons that could not be triangulated")
+        horizontal, vertical = self.crs
+        return MeshSource(meshes=meshes, crs=horizontal, target_names=[target.id], notes=notes,
+                          vertical_crs=vertical, path=Path(self.path))
+
+
+def _mesh(tri: np.ndarray) -> trimesh.Trimesh:
+    return trimesh.Trimesh(vertices=tri.reshape(-1, 3), faces=np.arange(3 * len(tri)).reshape(-1, 3),
+                           process=False)

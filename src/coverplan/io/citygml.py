@@ -15,8 +15,8 @@ import numpy as np
 from lxml import etree
 
 from ..errors import InputFileError
-from . import MeshSource, open_maybe_gzip, register_reader
-from .city import CityObject, parse_crs, to_source, triangulate_rings
+from . import MeshSource, open_maybe_gzip, register_city_reader, register_reader
+from .city import CityModel, CityObject, parse_crs, triangulate_rings
 
 GML_NAMESPACES = ("http://www.opengis.net/gml/3.2", "http://www.opengis.net/gml")
 XLINK = "{http://www.w3.org/1999/xlink}href"
@@ -28,9 +28,18 @@ def _local(element) -> str:
     return etree.QName(element).localname if isinstance(element.tag, str) else ""
 
 
-@register_reader("gml", "citygml", "xml", "gml.gz", "citygml.gz", "xml.gz")
+EXTENSIONS = ("gml", "citygml", "xml", "gml.gz", "citygml.gz", "xml.gz")
+
+
+@register_reader(*EXTENSIONS)
 def read_citygml(path, building: str | None = None, lod: int | None = None,
                  context_radius: float | None = None, **_ignored) -> MeshSource:
+    return read_citygml_model(path).source(building, context_radius, lod)
+
+
+@register_city_reader(*EXTENSIONS)
+def read_citygml_model(path) -> CityModel:
+    """Every top-level city object of a CityGML file."""
     parser = etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=True, remove_comments=True)
     try:
         with open_maybe_gzip(path) as handle:
@@ -57,7 +66,8 @@ def read_citygml(path, building: str | None = None, lod: int | None = None,
                 continue
             name_el = obj.find(f"{{{gml}}}name")
             city = CityObject(obj.get(gml_id) or f"{_local(obj)}{len(objects)}", _local(obj),
-                              name_el.text.strip() if name_el is not None and name_el.text else None)
+                              name_el.text.strip() if name_el is not None and name_el.text else None,
+                              attributes=_attributes(obj))
             seen_by_lod: dict[int, set] = {}  # per LoD: a Solid's shell often refers to boundary polygons
             for prop in obj.iter():
                 match = _LOD.match(_local(prop))
@@ -77,7 +87,28 @@ def read_citygml(path, building: str | None = None, lod: int | None = None,
             objects.append(city)
     if not objects:
         raise InputFileError(path, "holds no city objects (no cityObjectMember)")
-    return to_source(objects, path, building, context_radius, crs, skipped, lod)
+    return CityModel(path, objects, crs, skipped)
+
+
+def _attributes(obj) -> dict:
+    """Simple attributes of a city object: text-only child elements (bldg:function, ...) and
+    generic attributes (CityGML 1/2 ``gen:stringAttribute name=``, 3.0 ``gen:name``/``gen:value``)."""
+    found = {}
+    for child in obj:
+        if not isinstance(child.tag, str):
+            continue
+        name = _local(child)
+        if len(child) == 0 and child.text and child.text.strip():
+            found.setdefault(name, child.text.strip())
+    for element in obj.iter():
+        if not isinstance(element.tag, str) or not _local(element).lower().endswith("attribute"):
+            continue
+        key = element.get("name")
+        parts = {_local(c): (c.text or "").strip() for c in element if isinstance(c.tag, str)}
+        key = key or parts.get("name")
+        if key and "value" in parts:
+            found.setdefault(key, parts["value"])
+    return found
 
 
 def _surfaces(prop, by_id, gml):

@@ -12,8 +12,8 @@ import zlib
 import numpy as np
 
 from ..errors import InputFileError
-from . import MeshSource, open_maybe_gzip, register_reader
-from .city import CityObject, parse_crs, to_source, triangulate_rings
+from . import MeshSource, open_maybe_gzip, register_city_reader, register_reader
+from .city import CityModel, CityObject, parse_crs, triangulate_rings
 
 
 def _load(path):
@@ -39,9 +39,18 @@ def _load(path):
     return header, features
 
 
-@register_reader("city.json", "json", "city.jsonl", "jsonl", "json.gz", "jsonl.gz")
+EXTENSIONS = ("city.json", "json", "city.jsonl", "jsonl", "json.gz", "jsonl.gz")
+
+
+@register_reader(*EXTENSIONS)
 def read_cityjson(path, building: str | None = None, lod: int | None = None,
                   context_radius: float | None = None, **_ignored) -> MeshSource:
+    return read_cityjson_model(path).source(building, context_radius, lod)
+
+
+@register_city_reader(*EXTENSIONS)
+def read_cityjson_model(path) -> CityModel:
+    """Every city object of a CityJSON / CityJSONSeq file."""
     try:
         header, features = _load(path)
     except UnicodeDecodeError:
@@ -72,7 +81,8 @@ def read_cityjson(path, building: str | None = None, lod: int | None = None,
             if not isinstance(obj, dict) or obj.get("parents"):
                 continue
             attributes = obj.get("attributes") if isinstance(obj.get("attributes"), dict) else {}
-            city = CityObject(str(oid), str(obj.get("type", "CityObject")), attributes.get("name"))
+            city = CityObject(str(oid), str(obj.get("type", "CityObject")), attributes.get("name"),
+                              attributes=attributes)
             children = obj.get("children") if isinstance(obj.get("children"), list) else []
             parts = [obj] + [city_objects.get(c) for c in children if isinstance(c, str)]
             for part in parts:
@@ -82,7 +92,7 @@ def read_cityjson(path, building: str | None = None, lod: int | None = None,
             objects.append(city)
     if not objects:
         raise InputFileError(path, "holds no city objects")
-    return to_source(objects, path, building, context_radius, crs, skipped, lod)
+    return CityModel(path, objects, crs, skipped)
 
 
 def _surfaces(kind: str, boundaries) -> list:
