@@ -132,6 +132,17 @@ ROWS = {
         lambda t: ["evaluate", file_with(t, "w.waypoints", "QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t48.7\t9.1\t250\t1\n"
                                           "1\t0\t3\t16\t0\t0\t0\t0\t48.7\t9.1\t10\t1\n"),
                    "--target", L, *PLAN], ["no georeference", "--crs"]),
+    "batch: no buildings chosen": (lambda t: ["batch", CITY / "lod2_buildings_v2.json.gz", *PLAN, "-o", t / "out"],
+                                   ["choose the buildings", "--all"]),
+    "batch: nothing matches": (lambda t: ["batch", CITY / "lod2_buildings_v2.json.gz", "--bbox", "500", "500", "600",
+                                          "600", *PLAN, "-o", t / "out"], ["no building", "matches --bbox"]),
+    "batch: inverted --bbox": (lambda t: ["batch", CITY / "lod2_buildings_v2.json.gz", "--bbox", "5", "5", "1", "1",
+                                          *PLAN, "-o", t / "out"], ["xmin < xmax"]),
+    "batch: --where without =": (lambda t: ["batch", CITY / "lod2_buildings_v2.json.gz", "--where", "roofType", *PLAN,
+                                            "-o", t / "out"], ["attr=value", "roofType"]),
+    "batch: not a city file": (lambda t: ["batch", L, "--all", *PLAN, "-o", t / "out"], ["l_prism.obj", "not a city model"]),
+    "batch: --workers 0": (lambda t: ["batch", CITY / "lod2_buildings_v2.json.gz", "--all", "--workers", "0", *PLAN,
+                                      "-o", t / "out"], ["--workers must be at least 1"]),
 }
 
 

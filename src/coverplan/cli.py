@@ -9,6 +9,7 @@ import sys
 from . import __version__
 from .camera import PRESETS, Camera, check_positive, get_camera
 from .errors import CoverplanError, ParameterError
+from .io import GEOGRAPHIC_FORMATS, export_route, parse_formats
 
 
 class _Parser(argparse.ArgumentParser):
@@ -51,30 +52,6 @@ def _scene(args):
                       target_names=args.target_names, up_axis=args.up_axis, building=args.building,
                       lod=args.lod, context_radius=args.context_radius, crs=args.crs,
                       geodetic_origin=args.geo_origin)
-
-
-GEOGRAPHIC = {"qgc", "wpl", "litchi", "kml", "geojson"}
-
-
-def _formats(text: str | None) -> list[str]:
-    from .io import writer_names
-    if not text:
-        return []
-    names = [n.strip().lower() for n in text.split(",") if n.strip()]
-    unknown = [n for n in names if n not in writer_names()]
-    if unknown:
-        raise ParameterError(f"unknown export format {', '.join(unknown)}; formats: {', '.join(writer_names())}")
-    return names
-
-
-def _export(route, stem, formats, **options) -> list:
-    """Write ``route`` in each format as STEM + the format's suffix."""
-    from .io import writer
-    written = []
-    for name in formats:
-        func, suffix = writer(name)
-        written += func(route, f"{stem}{suffix}", **options)
-    return written
 
 
 def _camera(args) -> Camera:
@@ -166,7 +143,7 @@ def cmd_plan(args) -> int:
         raise ParameterError(f"{out.parent} does not exist (output folder for {out.name})")
     camera = _camera(args)
     check_positive("--speed", args.speed)
-    formats = _formats(args.export)
+    formats = parse_formats(args.export)
     progress = Progress(bars=not args.quiet, verbose=args.verbose)
     with progress.stage("load scene"):
         scene = _scene(args)
@@ -178,18 +155,12 @@ def cmd_plan(args) -> int:
     for note in scene.notes:  # say it now, before the long work, not only in the summary
         if note.startswith("WARNING"):
             print(f"coverplan: {note}", file=sys.stderr)
-    if set(formats) & GEOGRAPHIC and not (scene.crs or scene.geodetic_origin):
-        raise ParameterError(f"{', '.join(sorted(set(formats) & GEOGRAPHIC))} export needs a georeference: "
+    if set(formats) & GEOGRAPHIC_FORMATS and not (scene.crs or scene.geodetic_origin):
+        raise ParameterError(f"{', '.join(sorted(set(formats) & GEOGRAPHIC_FORMATS))} export needs a georeference: "
                              "the input has no CRS; pass --crs EPSG:XXXX or --geo-origin LAT LON H")
     # --start is in the input models' coordinates, like the meshes: move it with them.
     start = None if args.start is None else scene.to_local(args.start)
-    route = plan(scene, camera, gsd=args.gsd, security=args.security, start=start,
-                 min_views=args.min_views, min_triangulation_deg=args.min_triangulation_deg,
-                 rule=args.rule, match=_match_rule(args),
-                 max_incidence_deg=args.max_incidence_deg, min_altitude=args.min_altitude,
-                 spacing=args.spacing, gimbal_pitch_range_deg=(args.gimbal_min_deg, args.gimbal_max_deg),
-                 lp_time_limit=args.lp_time_limit, progress=progress, surface_classes=args.only,
-                 max_memory=None if args.max_memory_gb is None else check_positive("--max-memory-gb", args.max_memory_gb) * 1e9)
+    route = plan(scene, camera, start=start, progress=progress, **_plan_options(args))
     ev = None
     if args.evaluate or args.report or args.plot:
         from .evaluate import evaluate
@@ -200,7 +171,7 @@ def cmd_plan(args) -> int:
     written = [out]
     written += _pictures(route, scene, ev, args.report, args.plot, progress)
     stem = str(out)[:-5] if str(out).lower().endswith(".json") else str(out)
-    written += _export(route, stem, formats, firmware=args.firmware, speed=args.speed)
+    written += export_route(route, stem, formats, firmware=args.firmware, speed=args.speed)
     if not args.quiet:
         print(plan_summary(route, args.speed, args.shot_seconds))
         print("written: " + ", ".join(str(p) for p in written))
@@ -212,6 +183,55 @@ def cmd_plan(args) -> int:
                       Simulation.load(Path(args.simulate) / "simulation.json"))
         return code
     return 0
+
+
+def _plan_options(args) -> dict:
+    """planner.plan's keyword arguments from the planning flags ``plan`` and ``batch`` share."""
+    return dict(gsd=args.gsd, security=args.security, min_views=args.min_views,
+                min_triangulation_deg=args.min_triangulation_deg, rule=args.rule, match=_match_rule(args),
+                max_incidence_deg=args.max_incidence_deg, min_altitude=args.min_altitude, spacing=args.spacing,
+                gimbal_pitch_range_deg=(args.gimbal_min_deg, args.gimbal_max_deg),
+                lp_time_limit=args.lp_time_limit, surface_classes=args.only,
+                max_memory=None if args.max_memory_gb is None
+                else check_positive("--max-memory-gb", args.max_memory_gb) * 1e9)
+
+
+def cmd_batch(args) -> int:
+    from .batch import BatchSettings, parse_where, run_batch
+    from .progress import Progress
+
+    if args.workers is not None and args.workers < 1:
+        raise ParameterError(f"--workers must be at least 1, got {args.workers}")
+    if args.workers is not None and args.scheduler:
+        raise ParameterError("give either --workers (a local cluster) or --scheduler (a running one), not both")
+    if args.merge_obstacles_within is not None and args.merge_obstacles_within < 0:
+        raise ParameterError(f"--merge-obstacles-within must be >= 0, got {args.merge_obstacles_within}")
+    if args.buildings and (args.all or args.bbox or args.where):
+        raise ParameterError("--buildings names the buildings; it does not combine with --all, --bbox or --where")
+    settings = BatchSettings(camera=_camera(args), plan_options=_plan_options(args),
+                             exports=parse_formats(args.export),
+                             export_options={"firmware": args.firmware, "speed": check_positive("--speed", args.speed)},
+                             report=args.report, speed=args.speed, shot_seconds=args.shot_seconds,
+                             merge_obstacles_within=args.merge_obstacles_within,
+                             context_radius=args.context_radius, lod=args.lod)
+    progress = Progress(bars=not args.quiet)
+    result = run_batch(args.city, args.output, settings, buildings=args.buildings, everything=args.all,
+                       bbox=args.bbox, where=parse_where(args.where), workers=args.workers,
+                       scheduler=args.scheduler, progress=progress, log_lines=not args.quiet)
+    failed = result.failed
+    if not args.quiet:
+        planned = len(result.rows) - len(failed)
+        rate = 60.0 * result.planned_now / result.seconds if result.seconds > 0 else 0.0
+        print(f"{len(result.rows)} buildings: {planned} planned"
+              + (f" ({result.skipped} already complete)" if result.skipped else "")
+              + (f", {len(failed)} not planned" if failed else "")
+              + f"; {result.seconds:.1f} s, {rate:.1f} buildings/min")
+        for row in failed[:5]:
+            print(f"  {row['id']}: {row.get('status')}: {row.get('error', '')}")
+        if len(failed) > 5:
+            print(f"  ... and {len(failed) - 5} more (summary.csv)")
+        print("written: " + ", ".join(str(p) for p in result.written))
+    return 1 if failed else 0
 
 
 def _match_rule(args):
@@ -313,7 +333,7 @@ def cmd_report(args) -> int:
 
 def plan_summary(route, speed: float, shot_seconds: float) -> str:
     m = route.metrics
-    minutes = (route.path_length / speed + int(route.shot.sum()) * shot_seconds) / 60.0
+    minutes = route.flight_minutes(speed, shot_seconds)
     rows = [
         ("shots", f"{m['shots']}" + (f"  (LP lower bound {m['lp_lower_bound_shots']:.1f})"
                                       if m.get("lp_lower_bound_shots") else "")),
@@ -359,7 +379,7 @@ def cmd_export(args) -> int:
     from .route import Route
     from .scene import _check_geodetic_origin
     from .geo import check_crs
-    formats = _formats(args.format)
+    formats = parse_formats(args.format)
     if not formats:
         raise ParameterError("give --format with one or more of: qgc, wpl, litchi, kml, geojson, csv")
     route = Route.load(args.route)
@@ -373,9 +393,49 @@ def cmd_export(args) -> int:
         else:
             route.frame["geodetic_origin"] = _check_geodetic_origin(args.geo_origin)
     stem = args.output or (args.route[:-5] if args.route.lower().endswith(".json") else args.route)
-    written = _export(route, stem, formats, firmware=args.firmware, speed=args.speed)
+    written = export_route(route, stem, formats, firmware=args.firmware, speed=args.speed)
     print("written: " + ", ".join(str(p) for p in written))
     return 0
+
+
+def _add_planning_args(p):
+    """The camera and planning flags ``plan`` and ``batch`` share."""
+    _add_camera_args(p)
+    p.add_argument("--gsd", type=float, required=True, metavar="M_PER_PX", help="target ground sampling distance")
+    p.add_argument("--security", type=float, required=True, metavar="M",
+                   help="security distance to keep from every mesh")
+    p.add_argument("--rule", choices=["sfm", "thesis"], default="sfm",
+                   help="sfm (default): plan for a reconstruction (docs/reconstruction.md); "
+                        "thesis: 2 views 5 deg apart, the thesis's rule, for comparison")
+    p.add_argument("--min-views", type=int, default=None, help="views per surface point (default 3; thesis rule 2)")
+    p.add_argument("--min-triangulation-deg", type=float, default=5.0)
+    p.add_argument("--max-pair-deg", type=float, default=None, metavar="DEG",
+                   help="sfm rule: widest view pair SfM is trusted to match (default 35)")
+    p.add_argument("--min-overlap", type=float, default=None, metavar="FRACTION",
+                   help="sfm rule: surface two linked photos share (default 0.3)")
+    p.add_argument("--min-neighbours", type=int, default=None,
+                   help="sfm rule: linked photos every photo needs (default 2)")
+    p.add_argument("--max-incidence-deg", type=float, default=70.0)
+    p.add_argument("--min-altitude", type=float, default=None, metavar="M",
+                   help="lowest flight height above the ground (default: the security distance)")
+    p.add_argument("--gimbal-min-deg", type=float, default=-90.0, help="lowest gimbal pitch (default -90)")
+    p.add_argument("--gimbal-max-deg", type=float, default=30.0, help="highest gimbal pitch (default 30)")
+    p.add_argument("--spacing", type=float, default=None, metavar="M",
+                   help="surface sample spacing (default d_opt/8, coarser for huge targets)")
+    p.add_argument("--speed", type=float, default=5.0, metavar="M_PER_S", help="for the flight time estimate")
+    p.add_argument("--shot-seconds", type=float, default=1.0, help="hover time per shot, for the estimate")
+    p.add_argument("--lp-time-limit", type=float, default=20.0, metavar="S",
+                   help="time for the LP that guides view selection and bounds it (0: plain greedy)")
+    p.add_argument("--only", nargs="+", default=None, metavar="CLASS",
+                   choices=["facade", "roof", "terrace", "opposed_terrace"],
+                   help="cover only these surfaces (facade, roof, terrace, opposed_terrace)")
+    p.add_argument("--max-memory-gb", type=float, default=None, metavar="GB",
+                   help="refuse plans estimated to need more (default: 80%% of this machine's RAM)")
+    p.add_argument("--merge-obstacles-within", type=float, default=None, metavar="M",
+                   help="unite obstacles closer than M to the target with it (thesis Appendix C)")
+    p.add_argument("--export", default=None, metavar="FORMATS",
+                   help="also write flight files beside the route: qgc,wpl,litchi,kml,geojson,csv")
+    p.add_argument("--firmware", choices=["px4", "ardupilot"], default="px4", help="for the QGC .plan")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -406,50 +466,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("plan", help="plan a safe flight covering the target surface")
     _add_scene_args(p, targets_positional=True)
-    _add_camera_args(p)
-    p.add_argument("--gsd", type=float, required=True, metavar="M_PER_PX", help="target ground sampling distance")
-    p.add_argument("--security", type=float, required=True, metavar="M",
-                   help="security distance to keep from every mesh")
+    _add_planning_args(p)
     p.add_argument("--start", nargs=3, type=float, default=None, metavar=("X", "Y", "Z"),
                    help="start and end point, in the input models' coordinates (default: just outside "
                         "the shot region, north-west)")
-    p.add_argument("--rule", choices=["sfm", "thesis"], default="sfm",
-                   help="sfm (default): plan for a reconstruction (docs/reconstruction.md); "
-                        "thesis: 2 views 5 deg apart, the thesis's rule, for comparison")
-    p.add_argument("--min-views", type=int, default=None, help="views per surface point (default 3; thesis rule 2)")
-    p.add_argument("--min-triangulation-deg", type=float, default=5.0)
-    p.add_argument("--max-pair-deg", type=float, default=None, metavar="DEG",
-                   help="sfm rule: widest view pair SfM is trusted to match (default 35)")
-    p.add_argument("--min-overlap", type=float, default=None, metavar="FRACTION",
-                   help="sfm rule: surface two linked photos share (default 0.3)")
-    p.add_argument("--min-neighbours", type=int, default=None,
-                   help="sfm rule: linked photos every photo needs (default 2)")
-    p.add_argument("--max-incidence-deg", type=float, default=70.0)
-    p.add_argument("--min-altitude", type=float, default=None, metavar="M",
-                   help="lowest flight height above the ground (default: the security distance)")
-    p.add_argument("--gimbal-min-deg", type=float, default=-90.0, help="lowest gimbal pitch (default -90)")
-    p.add_argument("--gimbal-max-deg", type=float, default=30.0, help="highest gimbal pitch (default 30)")
-    p.add_argument("--spacing", type=float, default=None, metavar="M",
-                   help="surface sample spacing (default d_opt/8, coarser for huge targets)")
-    p.add_argument("--speed", type=float, default=5.0, metavar="M_PER_S", help="for the flight time estimate")
-    p.add_argument("--shot-seconds", type=float, default=1.0, help="hover time per shot, for the estimate")
-    p.add_argument("--lp-time-limit", type=float, default=20.0, metavar="S",
-                   help="time for the LP that guides view selection and bounds it (0: plain greedy)")
-    p.add_argument("--only", nargs="+", default=None, metavar="CLASS",
-                   choices=["facade", "roof", "terrace", "opposed_terrace"],
-                   help="cover only these surfaces (facade, roof, terrace, opposed_terrace)")
-    p.add_argument("--max-memory-gb", type=float, default=None, metavar="GB",
-                   help="refuse plans estimated to need more (default: 80%% of this machine's RAM)")
-    p.add_argument("--merge-obstacles-within", type=float, default=None, metavar="M",
-                   help="unite obstacles closer than M to the target with it (thesis Appendix C)")
     p.add_argument("--no-evaluate", dest="evaluate", action="store_false",
                    help="skip the independent evaluation of the planned route")
     p.add_argument("-o", "--output", required=True, metavar="ROUTE.json")
     p.add_argument("--report", default=None, metavar="REPORT.html", help="also write the HTML flight report")
     p.add_argument("--plot", default=None, metavar="PREFIX", help="also write PNG figures PREFIX_*.png")
-    p.add_argument("--export", default=None, metavar="FORMATS",
-                   help="also write flight files beside the route: qgc,wpl,litchi,kml,geojson,csv")
-    p.add_argument("--firmware", choices=["px4", "ardupilot"], default="px4", help="for the QGC .plan")
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summary")
     p.add_argument("-v", "--verbose", action="store_true", help="log each stage's time")
@@ -457,6 +482,30 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also render the photos and reconstruct them with COLMAP into DIR (needs coverplan[sfm])")
     _add_simulate_args(p)
     p.set_defaults(func=cmd_plan)
+
+    p = sub.add_parser("batch", help="plan every chosen building of a CityGML/CityJSON file, on Dask")
+    p.add_argument("city", metavar="CITYFILE", help="CityGML (.gml) or CityJSON (.city.json, .json, .jsonl; .gz too)")
+    which = p.add_argument_group("buildings (one of; --bbox and --where combine)")
+    which.add_argument("--buildings", nargs="+", default=None, metavar="ID", help="these building ids")
+    which.add_argument("--all", action="store_true", help="every building of the file")
+    which.add_argument("--bbox", nargs=4, type=float, default=None, metavar=("XMIN", "YMIN", "XMAX", "YMAX"),
+                       help="buildings centred in this box, in the file's coordinates")
+    which.add_argument("--where", action="append", default=None, metavar="ATTR=VALUE",
+                       help="buildings whose attribute equals VALUE (repeat: all must hold)")
+    p.add_argument("--lod", type=int, default=None, help="level of detail (default: each building's highest)")
+    p.add_argument("--context-radius", type=float, default=None, metavar="M",
+                   help="city objects within this distance of a building are its obstacles (default 150)")
+    _add_planning_args(p)
+    p.add_argument("--no-report", dest="report", action="store_false", help="no HTML report per building")
+    p.add_argument("-o", "--output", required=True, metavar="OUTDIR",
+                   help="folder for buildings/ID/..., summary.csv, summary.geojson and index.html; "
+                        "re-running into it skips complete buildings")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="local Dask cluster of N worker processes (default: one per core)")
+    p.add_argument("--scheduler", default=None, metavar="tcp://HOST:PORT",
+                   help="use this running Dask scheduler instead (docs/batch.md)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or summary")
+    p.set_defaults(func=cmd_batch)
 
     p = sub.add_parser("simulate", help="render a route's photos, reconstruct them with COLMAP, judge the result")
     p.add_argument("route", metavar="ROUTE.json")

@@ -74,6 +74,10 @@ class Route:
         """Length from the first shot to the last (the thesis's tables count only this)."""
         return coverage_length(self.positions, self.shot)
 
+    def flight_minutes(self, speed: float, shot_seconds: float) -> float:
+        """The simple estimate: the path at ``speed`` m/s plus ``shot_seconds`` per photo."""
+        return (self.path_length / speed + int(self.shot.sum()) * shot_seconds) / 60.0
+
     @property
     def gsd(self) -> float:
         return float(self.params["gsd_m"])

@@ -168,6 +168,30 @@ def writer_names() -> list[str]:
     return sorted(_WRITERS)
 
 
+GEOGRAPHIC_FORMATS = {"qgc", "wpl", "litchi", "kml", "geojson"}  # need the route placed on Earth
+
+
+def parse_formats(text: str | None) -> list[str]:
+    """Export format names from 'qgc,kml' (a ParameterError for unknown ones)."""
+    if not text:
+        return []
+    names = [n.strip().lower() for n in text.split(",") if n.strip()]
+    unknown = [n for n in names if n not in writer_names()]
+    if unknown:
+        from ..errors import ParameterError
+        raise ParameterError(f"unknown export format {', '.join(unknown)}; formats: {', '.join(writer_names())}")
+    return names
+
+
+def export_route(route, stem, formats, **options) -> list[Path]:
+    """Write ``route`` in each format as STEM + the format's suffix."""
+    written = []
+    for name in formats:
+        func, suffix = writer(name)
+        written += func(route, f"{stem}{suffix}", **options)
+    return written
+
+
 def write_atomic(path, text: str) -> Path:
     """Write a text file so readers never see half of it: temporary file, fsync, rename."""
     path = Path(path)

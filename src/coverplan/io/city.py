@@ -168,7 +168,12 @@ class CityModel:
 
     def source(self, building: str | None = None, context_radius: float | None = None,
                lod: int | None = None) -> MeshSource:
-        """The target building and, within ``context_radius`` of it, every other object as obstacle.
+        """The target building and, within ``context_radius`` of it, every other object as obstacle."""
+        return self.neighbourhood(building, context_radius, lod).source()
+
+    def neighbourhood(self, building: str | None = None, context_radius: float | None = None,
+                      lod: int | None = None) -> "Neighbourhood":
+        """The target building's triangles and those of every object within ``context_radius``.
 
         The target is read at ``lod`` (default: its highest LoD of 1 or more); the others at the
         same LoD where they have it, else at their highest.
@@ -197,17 +202,39 @@ class CityModel:
         lo, hi = tri.reshape(-1, 3)[:, :2].min(axis=0), tri.reshape(-1, 3)[:, :2].max(axis=0)
         gap = np.maximum(np.maximum(boxes[:, :2] - hi, lo - boxes[:, 2:]), 0.0)
         near = np.linalg.norm(gap, axis=1) <= radius
-        meshes = [(target.id, _mesh(tri))]
-        meshes += [(o.id, _mesh(self.triangles(o, lod))) for o, keep in zip(with_geometry, near)
-                   if keep and o is not target]
+        parts = [(target.id, tri)]
+        parts += [(o.id, self.triangles(o, lod)) for o, keep in zip(with_geometry, near) if keep and o is not target]
         name = Path(self.path).name
-        notes = [f"{name}: target {target.kind} {target.id}, {len(meshes) - 1} city objects within "
+        notes = [f"{name}: target {target.kind} {target.id}, {len(parts) - 1} city objects within "
                  f"{radius:g} m as obstacles"]
         if self.skipped:
             notes.append(f"{name}: skipped {self.skipped} polygons that could not be triangulated")
-        horizontal, vertical = self.crs
-        return MeshSource(meshes=meshes, crs=horizontal, target_names=[target.id], notes=notes,
-                          vertical_crs=vertical, path=Path(self.path))
+        return Neighbourhood(parts, notes, self.crs, Path(self.path))
+
+
+@dataclass
+class Neighbourhood:
+    """A target building (first of ``parts``) and the city objects around it, as raw triangles:
+    small to send to a batch worker, which makes the meshes."""
+
+    parts: list  # (id, (n, 3, 3) triangles), the target first
+    notes: list[str]
+    crs: tuple[str | None, str | None]
+    path: Path
+
+    def source(self) -> MeshSource:
+        meshes = [(oid, _mesh(tri)) for oid, tri in self.parts]
+        return MeshSource(meshes=meshes, crs=self.crs[0], target_names=[self.parts[0][0]], notes=list(self.notes),
+                          vertical_crs=self.crs[1], path=self.path)
+
+    def digest(self) -> str:
+        """Changes when any triangle of the target or its neighbours does."""
+        import hashlib
+        h = hashlib.sha256()
+        for oid, tri in self.parts:
+            h.update(oid.encode())
+            h.update(np.ascontiguousarray(tri, dtype=np.float64).tobytes())
+        return h.hexdigest()[:16]
 
 
 def _mesh(tri: np.ndarray) -> trimesh.Trimesh:

@@ -1,0 +1,150 @@
+"""coverplan batch: buildings of the shipped CityJSON sample on a real 2-worker Dask cluster,
+one worker killed on purpose, one building with broken geometry; then a resumed run."""
+
+from __future__ import annotations
+
+import csv
+import functools
+import json
+import os
+import sys
+
+import numpy as np
+import pytest
+from conftest import MESHES
+from independent import polyline_min_distance
+
+pytest.importorskip("distributed")
+import cloudpickle  # noqa: E402  (installed with distributed)
+
+from coverplan import get_camera, load_scene, plan  # noqa: E402
+from coverplan.batch import BatchSettings, completed_row, folder_names, plan_building, run_batch, select_buildings  # noqa: E402
+from coverplan.errors import ParameterError  # noqa: E402
+from coverplan.io import read_city_model  # noqa: E402
+from coverplan.route import Route  # noqa: E402
+
+CITY = MESHES / "citygml" / "lod2_buildings_v2.json.gz"
+CORNER = "FZK_GUID_1F3E679D-E226-4535-926C-7390977FB25A"  # 6 x 8 m house at (0, 0)
+RADIUS = 12.0  # neighbours within 12 m: a few houses each, to keep the test quick
+KILLED, BROKEN = 1, 2  # which of the three chosen buildings fails, and how
+
+# Workers unpickle the fault-injecting task; they need this module's code, not its import path.
+cloudpickle.register_pickle_by_value(sys.modules[__name__])
+
+
+def settings(**changes) -> BatchSettings:
+    options = dict(gsd=0.005, security=3.0, lp_time_limit=5.0)
+    return BatchSettings(camera=get_camera("phantom4pro"), plan_options=options, exports=["qgc"],
+                         export_options={"speed": 5.0}, report=False, context_radius=RADIUS, **changes)
+
+
+@pytest.fixture(scope="module")
+def model():
+    return read_city_model(CITY)
+
+
+@pytest.fixture(scope="module")
+def three(model):
+    return [b.id for b in model.buildings[:3]]
+
+
+def faulty(job, kill: str, broken: str):
+    """The real task, except one building kills its worker and one has broken geometry."""
+    if job.id == kill:
+        os._exit(13)  # as if the OOM killer took the worker
+    if job.id == broken:
+        target_id, tri = job.neighbourhood.parts[0]
+        job.neighbourhood.parts[0] = (target_id, np.full_like(tri, np.nan))
+    return plan_building(job)
+
+
+@pytest.fixture(scope="module")
+def first_run(tmp_path_factory, three):
+    out = tmp_path_factory.mktemp("batch")
+    task = functools.partial(faulty, kill=three[KILLED], broken=three[BROKEN])
+    result = run_batch(CITY, out, settings(), buildings=three, workers=2, task=task)
+    return out, result
+
+
+def test_failures_are_rows_and_the_rest_is_planned(first_run, three):
+    out, result = first_run
+    rows = {r["id"]: r for r in csv.DictReader(open(out / "summary.csv", encoding="utf-8"))}
+    assert list(rows) == three
+    assert rows[three[0]]["status"] == "planned"
+    assert rows[three[KILLED]]["status"] == "failed" and "worker" in rows[three[KILLED]]["error"]
+    assert rows[three[BROKEN]]["status"] == "failed" and "nan" in rows[three[BROKEN]]["error"].lower()
+    assert [r["status"] for r in result.rows] == ["planned", "failed", "failed"]
+    # failed buildings leave no route; no temporary folders are left behind
+    assert not (out / "buildings" / rows[three[KILLED]]["folder"] / "route.json").exists()
+    assert not [p for p in (out / "buildings").iterdir() if p.name.startswith(".")]
+    features = json.loads((out / "summary.geojson").read_text())["features"]
+    assert [f["properties"]["status"] for f in features] == ["planned", "failed", "failed"]
+    lon, lat = np.array(features[0]["geometry"]["coordinates"][0]).T
+    assert 13.0 < lon.min() < lon.max() < 13.1 and 52.3 < lat.min() < lat.max() < 52.4  # EPSG:3068 is Berlin
+    index = (out / "index.html").read_text()
+    assert index.count("<polygon") == 3 and "failed" in index
+
+
+def test_planned_route_is_what_plan_building_makes_and_is_safe(first_run, three):
+    out, _ = first_run
+    folder = out / "buildings" / folder_names(read_city_model(CITY).buildings[:1])[0]
+    route = Route.load(folder / "route.json")
+    assert (folder / "route.plan").stat().st_size > 0
+    scene = load_scene(CITY, building=three[0], context_radius=RADIUS)
+    alone = plan(scene, get_camera("phantom4pro"), gsd=0.005, security=3.0, lp_time_limit=5.0)
+    np.testing.assert_allclose(route.positions, alone.positions, atol=1e-3)  # the file keeps 0.1 mm
+    # independent of FCL: trimesh distances along the flight to the house and its neighbours
+    assert polyline_min_distance(route.positions, scene.meshes, step=0.3) >= 3.0 - 1e-3
+    assert len(scene.obstacles) >= 1
+
+
+def test_rerun_completes_only_the_missing_buildings(first_run, three):
+    out, _ = first_run
+    kept = out / "buildings" / folder_names(read_city_model(CITY).buildings[:1])[0] / "result.json"
+    stamp = kept.stat().st_mtime_ns
+    result = run_batch(CITY, out, settings(), buildings=three, workers=2)
+    assert (result.skipped, result.planned_now) == (1, 2)
+    assert [r["status"] for r in result.rows] == ["planned"] * 3
+    assert kept.stat().st_mtime_ns == stamp  # not rewritten
+    for row in result.rows:
+        assert Route.load(out / "buildings" / row["folder"] / "route.json").metrics["evaluation"]["safe"]
+    # other settings make other routes: nothing is skipped then
+    again = run_batch(CITY, out, settings(), buildings=three[:1], workers=1)
+    assert again.skipped == 1
+    changed = settings(shot_seconds=2.0)
+    assert completed_row(out, result.rows[0]["folder"], changed.fingerprint()) is None
+
+
+def test_an_incomplete_folder_is_not_taken_for_done(tmp_path, model, three):
+    result = run_batch(model, tmp_path, settings(), buildings=three[:1], workers=1)
+    row = result.rows[0]
+    folder = tmp_path / "buildings" / row["folder"]
+    assert completed_row(tmp_path, row["folder"], row["key"]) is not None
+    with open(folder / "route.plan", "ab") as handle:  # a truncated or edited file
+        handle.write(b" ")
+    assert completed_row(tmp_path, row["folder"], row["key"]) is None
+
+
+def test_choosing_buildings(model):
+    everything = model.buildings
+    assert len(select_buildings(model, everything=True)) == 100
+    west = select_buildings(model, bbox=[-1, -1, 20, 20])  # centres of the first two rows and columns
+    assert {b.id for b in west} >= {CORNER} and len(west) == 4
+    assert len(select_buildings(model, where=[("roofType", "1030"), ("storeysAboveGround", "5")])) >= 1
+    assert len(select_buildings(model, where=[("measuredHeight", "11")])) \
+        == sum(b.attributes.get("measuredHeight") == 11.0 for b in everything)
+    with pytest.raises(ParameterError, match="no building"):
+        select_buildings(model, bbox=[500, 500, 600, 600])
+    with pytest.raises(ParameterError, match="no city object with id"):
+        select_buildings(model, ids=["NOPE"])
+    with pytest.raises(ParameterError, match="choose the buildings"):
+        select_buildings(model)
+
+
+def test_folder_names_are_safe_and_unique():
+    class Obj:
+        def __init__(self, i):
+            self.id = i
+    names = folder_names([Obj("a/b"), Obj("a:b"), Obj(".."), Obj("A_B")])
+    assert len(set(n.lower() for n in names)) == 4
+    assert all("/" not in n and not n.startswith(".") for n in names)
