@@ -360,7 +360,7 @@ def run_batch(city: str | Path | CityModel, out_dir: str | Path, settings: Batch
                 counter.update(row)
     finally:
         counter.close()
-        ordered = [rows.get(o.id) or {"id": o.id, "folder": f, "status": "not run", "error": "interrupted"}
+        ordered = [rows.get(o.id) or {"id": o.id, "folder": f, "status": "not run", "error": "the batch stopped before planning it"}
                    for o, f in zip(chosen, folders)]
         written = write_summary(model, chosen, ordered, out_dir, settings)
     return BatchResult(ordered, out_dir, len(pending), skipped, time.perf_counter() - started, written)
