@@ -122,9 +122,7 @@ def select_buildings(model: CityModel, ids: list[str] | None = None, everything:
         xmin, ymin, xmax, ymax = (float(v) for v in bbox)
         if not (xmin < xmax and ymin < ymax):
             raise ParameterError(f"--bbox needs XMIN < XMAX and YMIN < YMAX, got {' '.join(f'{v:g}' for v in bbox)}")
-        boxes = model.xy_bounds(None)
-        index = {id(o): k for k, o in enumerate(model.with_geometry)}
-        centre = {id(o): (boxes[index[id(o)], :2] + boxes[index[id(o)], 2:]) / 2 for o in chosen}
+        centre = {id(o): (box[:2] + box[2:]) / 2 for o, box in zip(model.with_geometry, model.xy_bounds(None))}
         chosen = [o for o in chosen if xmin <= centre[id(o)][0] <= xmax and ymin <= centre[id(o)][1] <= ymax]
     for attr, value in where or []:
         chosen = [o for o in chosen if attr in o.attributes and _matches(o.attributes[attr], value)]
@@ -337,19 +335,20 @@ def run_batch(city: str | Path | CityModel, out_dir: str | Path, settings: Batch
     folders = folder_names(chosen)
     fingerprint = settings.fingerprint()
     rows: dict[str, dict] = {}
-    pending: list[tuple[CityObject, str]] = []
+    pending: list[tuple[CityObject, str, str]] = []
     for obj, folder in zip(chosen, folders):
         key = f"{fingerprint}-{model.neighbourhood(obj.id, settings.context_radius, settings.lod).digest()}"
         done = completed_row(out_dir, folder, key)
         if done is not None:
             rows[obj.id] = dict(done, resumed=True)
         else:
-            pending.append((obj, folder))
+            pending.append((obj, folder, key))
     skipped = len(rows)
 
-    def job(obj: CityObject, folder: str) -> BuildingJob:
-        hood = model.neighbourhood(obj.id, settings.context_radius, settings.lod)
-        return BuildingJob(obj.id, folder, hood, settings, f"{fingerprint}-{hood.digest()}")
+    def job(obj: CityObject, folder: str, key: str) -> BuildingJob:
+        # made again when submitted, not kept from above: the client holds few neighbourhoods at once
+        return BuildingJob(obj.id, folder, model.neighbourhood(obj.id, settings.context_radius, settings.lod),
+                           settings, key)
 
     counter = _Counter(len(pending), progress, log_lines)
     try:
@@ -417,13 +416,13 @@ def _run_on_dask(pending, make_job, task, workers, scheduler):
                                    dashboard_address=None, silence_logs=logging.ERROR)
             client = Client(cluster)
         try:
-            slots = 3 * max(1, len(client.scheduler_info().get("workers", {})) or (workers or 1))
+            slots = 3 * (len(client.scheduler_info().get("workers", {})) or workers or 1)
             queue = list(pending)
             futures = {}
 
             def submit():
-                obj, folder = queue.pop(0)
-                future = client.submit(task, make_job(obj, folder), pure=False,
+                obj, folder, key = queue.pop(0)
+                future = client.submit(task, make_job(obj, folder, key), pure=False,
                                        key=f"coverplan-{folder}-{time.time_ns()}")
                 futures[future.key] = (obj, folder)
                 return future

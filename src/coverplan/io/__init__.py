@@ -39,12 +39,17 @@ _CITY_READERS: dict[str, Callable] = {}
 _WRITERS: dict[str, tuple[Writer, str]] = {}
 
 
-def register_reader(*extensions: str):
-    def wrap(func: Reader) -> Reader:
+def _by_extension(table: dict, extensions) -> Callable:
+    """A decorator entering the function in ``table`` under each extension."""
+    def wrap(func):
         for ext in extensions:
-            _READERS[ext.lower()] = func
+            table[ext.lower()] = func
         return func
     return wrap
+
+
+def register_reader(*extensions: str):
+    return _by_extension(_READERS, extensions)
 
 
 def register_writer(name: str, suffix: str):
@@ -56,20 +61,12 @@ def register_writer(name: str, suffix: str):
 
 def register_city_reader(*extensions: str):
     """Readers of whole city models (CityGML, CityJSON): path -> io.city.CityModel."""
-    def wrap(func):
-        for ext in extensions:
-            _CITY_READERS[ext.lower()] = func
-        return func
-    return wrap
+    return _by_extension(_CITY_READERS, extensions)
 
 
 def register_mission_reader(*extensions: str):
     """Readers of flight-app missions (io/missions.py): path -> Mission."""
-    def wrap(func):
-        for ext in extensions:
-            _MISSION_READERS[ext.lower()] = func
-        return func
-    return wrap
+    return _by_extension(_MISSION_READERS, extensions)
 
 
 def mission_extensions() -> list[str]:
