@@ -41,10 +41,8 @@ class BatchSettings:
     camera: Camera
     plan_options: dict  # planner.plan's keyword arguments
     exports: list[str] = field(default_factory=list)
-    export_options: dict = field(default_factory=dict)  # firmware, speed
+    export_options: dict = field(default_factory=dict)  # firmware, speed, drone, wpml_heights
     report: bool = True
-    speed: float = 5.0  # m/s, for the flight-time column
-    shot_seconds: float = 1.0
     merge_obstacles_within: float | None = None
     context_radius: float | None = None
     lod: int | None = None
@@ -211,7 +209,8 @@ def _plan_and_render(job: BuildingJob) -> tuple[dict, dict]:
     main_reason = max(reasons, key=reasons.get) if reasons else ""
     row = {"status": status, "error": "" if ev.safe else f"evaluator: {m['unsafe_segment_count']} unsafe segments",
            "shots": int(route.shot.sum()), "path_length_m": round(route.path_length, 2),
-           "flight_time_min": round(route.flight_minutes(s.speed, s.shot_seconds), 2), "flights": 1,
+           "flight_time_min": round(sum(f["minutes"] for f in route.metrics["flights"]), 2),
+           "flights": route.n_flights,
            "coverage_pct": round(m["coverage_pct"], 3),
            "planned_coverage_pct": round(route.metrics["planned_coverage_pct"], 3),
            "uncovered_area_m2": round(m["unreachable_area_m2"] + m["uncovered_reachable_area_m2"], 2),

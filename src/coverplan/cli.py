@@ -55,14 +55,53 @@ def _scene(args):
 
 
 def _camera(args) -> Camera:
+    drone = _drone(args)
     if args.camera and any(v is not None for v in (args.sensor_mm, args.focal_mm, args.image_px)):
         raise ParameterError("give either --camera or --sensor-mm/--focal-mm/--image-px, not both")
+    if drone is not None and (args.camera or args.sensor_mm is not None):
+        raise ParameterError(f"--drone {drone.name} brings its camera ({drone.camera.name}); leave out --camera "
+                             "and --sensor-mm/--focal-mm/--image-px")
+    if drone is not None:
+        return drone.camera
     if args.camera:
         return get_camera(args.camera)
     if args.sensor_mm is None or args.focal_mm is None or args.image_px is None:
         raise ParameterError("give a camera: --camera PRESET, or all of --sensor-mm W H --focal-mm F "
-                             f"--image-px W H (presets: {', '.join(sorted(PRESETS))})")
+                             f"--image-px W H (presets: {', '.join(sorted(PRESETS))}), or a --drone")
     return Camera(args.sensor_mm[0], args.sensor_mm[1], args.focal_mm, args.image_px[0], args.image_px[1])
+
+
+def _drone(args):
+    from .drones import get_drone
+    name = getattr(args, "drone", None)
+    return get_drone(name) if name else None
+
+
+def _flight_model(args):
+    """The flight-time model: the drone's (at --speed if given), else generic at --speed."""
+    from .flighttime import FlightModel
+    drone = _drone(args)
+    speed = None if args.speed is None else check_positive("--speed", args.speed)
+    model = drone.flight_model(speed) if drone is not None else FlightModel(cruise_speed=speed or 5.0)
+    if args.shot_seconds is not None:
+        from dataclasses import replace
+        if not args.shot_seconds >= 0:
+            raise ParameterError(f"--shot-seconds must be >= 0, got {args.shot_seconds}")
+        model = replace(model, photo_seconds=float(args.shot_seconds))
+    return model
+
+
+def _export_options(args) -> dict:
+    return {"firmware": args.firmware, "speed": _flight_model(args).cruise_speed, "drone": _drone(args),
+            "wpml_heights": args.wpml_heights}
+
+
+def cmd_drones(args) -> int:
+    from .drones import drones_table
+    print(drones_table())
+    print("flight min: usable of rated (30 % kept in reserve); the first is the default --max-flight-min. "
+          "Sources: docs/flights.md")
+    return 0
 
 
 def cmd_cameras(args) -> int:
@@ -142,7 +181,6 @@ def cmd_plan(args) -> int:
     if not out.parent.exists():
         raise ParameterError(f"{out.parent} does not exist (output folder for {out.name})")
     camera = _camera(args)
-    check_positive("--speed", args.speed)
     formats = parse_formats(args.export)
     progress = Progress(bars=not args.quiet, verbose=args.verbose)
     with progress.stage("load scene"):
@@ -171,9 +209,9 @@ def cmd_plan(args) -> int:
     written = [out]
     written += _pictures(route, scene, ev, args.report, args.plot, progress)
     stem = str(out)[:-5] if str(out).lower().endswith(".json") else str(out)
-    written += export_route(route, stem, formats, firmware=args.firmware, speed=args.speed)
+    written += export_route(route, stem, formats, **_export_options(args))
     if not args.quiet:
-        print(plan_summary(route, args.speed, args.shot_seconds))
+        print(plan_summary(route))
         print("written: " + ", ".join(str(p) for p in written))
     if args.simulate:
         code = _simulate(route, scene, args.simulate, args)
@@ -190,10 +228,21 @@ def _plan_options(args) -> dict:
     return dict(gsd=args.gsd, security=args.security, min_views=args.min_views,
                 min_triangulation_deg=args.min_triangulation_deg, rule=args.rule, match=_match_rule(args),
                 max_incidence_deg=args.max_incidence_deg, min_altitude=args.min_altitude, spacing=args.spacing,
-                gimbal_pitch_range_deg=(args.gimbal_min_deg, args.gimbal_max_deg),
+                gimbal_pitch_range_deg=_gimbal(args), drone=_drone(args), flight_model=_flight_model(args),
+                max_flight_min=args.max_flight_min,
                 lp_time_limit=args.lp_time_limit, surface_classes=args.only,
                 max_memory=None if args.max_memory_gb is None
                 else check_positive("--max-memory-gb", args.max_memory_gb) * 1e9)
+
+
+def _gimbal(args):
+    """The gimbal range given on the command line (None: the drone's, or -90..30)."""
+    if args.gimbal_min_deg is None and args.gimbal_max_deg is None:
+        return None
+    drone = _drone(args)
+    lo, hi = drone.gimbal_pitch_deg if drone is not None else (-90.0, 30.0)
+    return (lo if args.gimbal_min_deg is None else args.gimbal_min_deg,
+            hi if args.gimbal_max_deg is None else args.gimbal_max_deg)
 
 
 def cmd_batch(args) -> int:
@@ -210,8 +259,7 @@ def cmd_batch(args) -> int:
         raise ParameterError("--buildings names the buildings; it does not combine with --all, --bbox or --where")
     settings = BatchSettings(camera=_camera(args), plan_options=_plan_options(args),
                              exports=parse_formats(args.export),
-                             export_options={"firmware": args.firmware, "speed": check_positive("--speed", args.speed)},
-                             report=args.report, speed=args.speed, shot_seconds=args.shot_seconds,
+                             export_options=_export_options(args), report=args.report,
                              merge_obstacles_within=args.merge_obstacles_within,
                              context_radius=args.context_radius, lod=args.lod)
     progress = Progress(bars=not args.quiet)
@@ -331,14 +379,13 @@ def cmd_report(args) -> int:
     return 0
 
 
-def plan_summary(route, speed: float, shot_seconds: float) -> str:
+def plan_summary(route) -> str:
     m = route.metrics
-    minutes = route.flight_minutes(speed, shot_seconds)
     rows = [
         ("shots", f"{m['shots']}" + (f"  (LP lower bound {m['lp_lower_bound_shots']:.1f})"
                                       if m.get("lp_lower_bound_shots") else "")),
         ("path length", f"{route.path_length:,.1f} m  (one orbit at the standoff: {m['orbit_length_m']:,.1f} m)"),
-        ("flight time", f"{minutes:.1f} min at {speed:g} m/s, {shot_seconds:g} s per shot"),
+        *_flight_rows(route),
         ("coverage (planned)", f"{m['planned_coverage_pct']:.2f} % of the reachable surface"
                                + (f", checked every {m['check_spacing_m']:.2f} m" if m.get("check_spacing_m") else "")),
         ("uncovered samples", f"{len(route.uncovered)}"),
@@ -347,10 +394,11 @@ def plan_summary(route, speed: float, shot_seconds: float) -> str:
     ]
     ev = m.get("evaluation")
     if ev:
-        rows.insert(4, ("coverage (evaluated)", f"{ev['coverage_pct']:.2f} % on fresh samples every "
-                                                f"{ev['sample_spacing_m']:.2f} m, p-outliers {ev['p_outliers']}"))
-        rows.insert(5, ("min clearance", f"{ev['min_clearance_m']:.2f} m (security {route.security:g} m)"
-                                         + ("" if ev["safe"] else "  UNSAFE")))
+        at = next(k for k, r in enumerate(rows) if r[0] == "uncovered samples")
+        rows.insert(at, ("coverage (evaluated)", f"{ev['coverage_pct']:.2f} % on fresh samples every "
+                                                 f"{ev['sample_spacing_m']:.2f} m, p-outliers {ev['p_outliers']}"))
+        rows.insert(at + 1, ("min clearance", f"{ev['min_clearance_m']:.2f} m (security {route.security:g} m)"
+                                              + ("" if ev["safe"] else "  UNSAFE")))
     reasons: dict[str, float] = {}
     for u in route.uncovered:
         reasons[u["reason"]] = reasons.get(u["reason"], 0.0) + u.get("area_m2", 0.0)
@@ -360,6 +408,28 @@ def plan_summary(route, speed: float, shot_seconds: float) -> str:
         rows.append(("  note", note))
     width = max(len(r[0]) for r in rows)
     return "\n".join(f"{a.ljust(width)}  {b}" for a, b in rows)
+
+
+def _flight_rows(route) -> list[tuple[str, str]]:
+    """Flight time by the model (docs/flights.md), per battery flight when there are several."""
+    m = route.metrics
+    flights = m.get("flights") or []
+    model = m.get("flight_model") or {}
+    total = sum(f["minutes"] for f in flights)
+    drone = route.params.get("drone")
+    how = (f"{model.get('cruise_speed', 0):g} m/s, stops at every waypoint"
+           + (f", {drone}" if drone else ""))
+    limit = route.params.get("max_flight_min")
+    rows = [("flight time", f"{total:.1f} min by the flight-time model ({how})"
+             + (f"; limit {limit:g} min per flight" if limit else ""))]
+    if len(flights) > 1:
+        extra = route.path_length / m["single_flight_path_m"] if m.get("single_flight_path_m") else float("nan")
+        rows.append(("flights", f"{len(flights)}, each from the start point back to it; path {extra:.2f}x one "
+                                "single flight's"))
+        for f in flights:
+            rows.append((f"  flight {f['flight']}", f"{f['minutes']:.1f} min, {f['shots']} shots, "
+                                                   f"{f['path_m']:,.0f} m, {f['limit_share_pct']:.0f} % of the limit"))
+    return rows
 
 
 def summarize_notes(notes: list[str], limit: int = 10) -> list[str]:
@@ -393,7 +463,7 @@ def cmd_export(args) -> int:
         else:
             route.frame["geodetic_origin"] = _check_geodetic_origin(args.geo_origin)
     stem = args.output or (args.route[:-5] if args.route.lower().endswith(".json") else args.route)
-    written = export_route(route, stem, formats, firmware=args.firmware, speed=args.speed)
+    written = export_route(route, stem, formats, **_export_options(args))
     print("written: " + ", ".join(str(p) for p in written))
     return 0
 
@@ -418,12 +488,19 @@ def _add_planning_args(p):
     p.add_argument("--max-incidence-deg", type=float, default=70.0)
     p.add_argument("--min-altitude", type=float, default=None, metavar="M",
                    help="lowest flight height above the ground (default: the security distance)")
-    p.add_argument("--gimbal-min-deg", type=float, default=-90.0, help="lowest gimbal pitch (default -90)")
-    p.add_argument("--gimbal-max-deg", type=float, default=30.0, help="highest gimbal pitch (default 30)")
+    p.add_argument("--drone", default=None, metavar="NAME",
+                   help="drone profile: camera, gimbal range, speeds, battery (see 'coverplan drones')")
+    p.add_argument("--max-flight-min", type=float, default=None, metavar="MIN",
+                   help="split the tour into flights of at most MIN minutes each, from the start back to it "
+                        "(default: the drone's usable flight time; without --drone one flight)")
+    p.add_argument("--gimbal-min-deg", type=float, default=None, help="lowest gimbal pitch (default: the drone's, else -90)")
+    p.add_argument("--gimbal-max-deg", type=float, default=None, help="highest gimbal pitch (default: the drone's, else 30)")
     p.add_argument("--spacing", type=float, default=None, metavar="M",
                    help="surface sample spacing (default d_opt/8, coarser for huge targets)")
-    p.add_argument("--speed", type=float, default=5.0, metavar="M_PER_S", help="for the flight time estimate")
-    p.add_argument("--shot-seconds", type=float, default=1.0, help="hover time per shot, for the estimate")
+    p.add_argument("--speed", type=float, default=None, metavar="M_PER_S",
+                   help="cruise speed between waypoints (default: the drone's, else 5)")
+    p.add_argument("--shot-seconds", type=float, default=None,
+                   help="hover time per photo (default: the drone's photo interval, at least 1 s)")
     p.add_argument("--lp-time-limit", type=float, default=20.0, metavar="S",
                    help="time for the LP that guides view selection and bounds it (0: plain greedy)")
     p.add_argument("--only", nargs="+", default=None, metavar="CLASS",
@@ -434,8 +511,16 @@ def _add_planning_args(p):
     p.add_argument("--merge-obstacles-within", type=float, default=None, metavar="M",
                    help="unite obstacles closer than M to the target with it (thesis Appendix C)")
     p.add_argument("--export", default=None, metavar="FORMATS",
-                   help="also write flight files beside the route: qgc,wpl,litchi,kml,geojson,csv")
+                   help="also write flight files beside the route: qgc,wpl,litchi,wpml,kml,geojson,csv "
+                        "(one per battery flight: NAME.f1.plan, ...)")
+    _add_export_args(p)
+
+
+def _add_export_args(p):
     p.add_argument("--firmware", choices=["px4", "ardupilot"], default="px4", help="for the QGC .plan")
+    p.add_argument("--wpml-heights", choices=["relative", "egm96"], default="relative",
+                   help="DJI WPML heights: relative to the take-off point (default) or EGM96 (needs a height "
+                        "datum and PROJ's geoid grid)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -445,6 +530,9 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser("cameras", help="list the camera presets")
     p.set_defaults(func=cmd_cameras)
+
+    p = sub.add_parser("drones", help="list the drone profiles (camera, gimbal, speeds, battery, apps)")
+    p.set_defaults(func=cmd_drones)
 
     p = sub.add_parser("evaluate", help="check a route's or another app's mission's coverage and safety")
     p.add_argument("route", metavar="ROUTE",
@@ -537,14 +625,17 @@ def build_parser() -> argparse.ArgumentParser:
         p.add_argument("-v", "--verbose", action="store_true")
         p.set_defaults(func=cmd_report)
 
-    p = sub.add_parser("export", help="write a route for autopilots: QGC .plan, WPL, Litchi, KML, GeoJSON, CSV")
+    p = sub.add_parser("export", help="write a route for autopilots: QGC .plan, WPL, Litchi, DJI WPML, KML, GeoJSON, CSV")
     p.add_argument("route", metavar="ROUTE.json")
-    p.add_argument("--format", required=True, metavar="FORMATS", help="comma separated: qgc,wpl,litchi,kml,geojson,csv")
+    p.add_argument("--format", required=True, metavar="FORMATS",
+                   help="comma separated: qgc,wpl,litchi,wpml,kml,geojson,csv")
     p.add_argument("-o", "--output", default=None, metavar="PREFIX", help="default: the route path without .json")
     p.add_argument("--crs", default=None, metavar="EPSG:XXXX", help="the CRS of a route that has none")
     p.add_argument("--geo-origin", nargs=3, type=float, default=None, metavar=("LAT", "LON", "H"))
-    p.add_argument("--firmware", choices=["px4", "ardupilot"], default="px4")
-    p.add_argument("--speed", type=float, default=5.0, metavar="M_PER_S")
+    p.add_argument("--drone", default=None, metavar="NAME", help="for WPML: the drone (default: the route's)")
+    _add_export_args(p)
+    p.add_argument("--speed", type=float, default=None, metavar="M_PER_S")
+    p.add_argument("--shot-seconds", type=float, default=None, help=argparse.SUPPRESS)
     p.set_defaults(func=cmd_export)
     return parser
 

@@ -90,3 +90,38 @@ def _enu_to_ecef(enu, lat0, lon0, h0) -> np.ndarray:
 
 def _ecef_to_enu(ecef, lat0, lon0, h0) -> np.ndarray:
     return (ecef - _origin_ecef(lat0, lon0, h0)) @ _rotation(lat0, lon0).T
+
+
+def _checked_transformer(src: str, dst: str) -> Transformer:
+    """The most accurate transformation, or a ParameterError naming the PROJ grids it lacks."""
+    import warnings
+
+    from pyproj.transformer import TransformerGroup
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        group = TransformerGroup(src, dst, always_xy=True)
+    if not group.best_available or not group.transformers:
+        grids = sorted({g.short_name for op in group.unavailable_operations for g in op.grids if not g.available})
+        raise ParameterError(
+            f"heights from {src} to {dst} need PROJ's grid{'s' if len(grids) > 1 else ''} {', '.join(grids) or '(unknown)'}, "
+            f"which {'are' if len(grids) > 1 else 'is'} not installed: fetch with 'projsync --file NAME' "
+            "(or set PROJ_NETWORK=ON), or export heights relative to the take-off point")
+    return group.transformers[0]
+
+
+def ellipsoidal_and_egm96(frame: dict, local) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Longitude, latitude, WGS84 ellipsoidal height and EGM96 height of local points; needs a
+    frame whose heights have a datum (a compound CRS or a vertical CRS) and PROJ's geoid grids."""
+    crs = frame.get("crs")
+    vertical = frame.get("vertical_crs")
+    if not crs or not (vertical or CRS.from_user_input(crs).is_compound):
+        raise ParameterError("EGM96 heights need a scene whose heights have a datum: a city model with a vertical "
+                             "CRS, or --crs with a compound CRS such as EPSG:7415; or export heights relative to the "
+                             "take-off point")
+    source = crs if not vertical or CRS.from_user_input(crs).is_compound else f"{crs}+{vertical.split(':')[-1]}"
+    local = np.asarray(local, dtype=float).reshape(-1, 3)
+    src = local + np.asarray(frame.get("origin") or [0.0, 0.0, 0.0], dtype=float)
+    unit = float(frame.get("crs_unit_m", 1.0))
+    lon, lat, h_ell = _checked_transformer(source, "EPSG:4979").transform(src[:, 0] / unit, src[:, 1] / unit, src[:, 2])
+    _lon, _lat, h_egm = _checked_transformer("EPSG:4979", "EPSG:4326+5773").transform(lon, lat, h_ell)
+    return np.asarray(lon), np.asarray(lat), np.asarray(h_ell), np.asarray(h_egm)

@@ -14,7 +14,8 @@ import numpy as np
 from .camera import Camera, check_positive
 from .candidates import along_normals, facade_rings, from_probes, keep_safe, standoff
 from .errors import ParameterError, PlanningError
-from .orientation import heading_pitch
+from .flights import Stops, flight_table, split_flights, transit_headings, waypoint_times
+from .flighttime import FlightModel
 from .pathing import (build_flight_graph, closure_hops, lattice_spacing, leg, shortcut,
                       shot_distances)
 from .progress import Progress
@@ -153,7 +154,8 @@ RULES = ("sfm", "thesis")
 def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_views: int | None = None,
          min_triangulation_deg: float = 5.0, rule: str = "sfm", match: MatchRule | None = None, max_incidence_deg: float = 70.0,
          min_altitude: float | None = None, spacing: float | None = None,
-         gimbal_pitch_range_deg=(-90.0, 30.0), cost_weight: float = 1.0,
+         gimbal_pitch_range_deg=None, cost_weight: float = 1.0, drone=None,
+         flight_model: FlightModel | None = None, max_flight_min: float | None = None,
          lattice_spacing_m: float | None = None, lp_time_limit: float = 20.0,
          max_memory: float | None = None, surface_classes=None,
          progress: Progress | None = None) -> Route:
@@ -164,6 +166,9 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     matchable set; "thesis" is the thesis's rule (``min_views`` 2, any pair wide enough).
     ``start`` is in the scene's local frame (``scene.to_local`` moves a point of the input
     models there); a start more than 5 km from the target is refused as a coordinate mix-up.
+    ``drone`` (drones.DroneProfile) gives the gimbal range, the flight-time model and the
+    flight length; ``max_flight_min`` splits the tour into flights of at most that many minutes
+    by the model, each from the start back to it (flights.py).
     Raises ParameterError / PlanningError (with a one-line message) on impossible settings;
     surface no safe position can image is planned around and listed in ``route.uncovered``.
     """
@@ -182,9 +187,12 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
                                           max_incidence_deg, min_altitude)
     min_views = int(min_views)
     min_alt = security if min_altitude is None else float(min_altitude)
-    lo_p, hi_p = (float(v) for v in gimbal_pitch_range_deg)
-    if not -90.0 <= lo_p <= hi_p <= 90.0:
-        raise ParameterError(f"gimbal pitch range must lie in [-90, 90] with min <= max, got {gimbal_pitch_range_deg}")
+    lo_p, hi_p = _gimbal_range(gimbal_pitch_range_deg, drone)
+    model = flight_model or (drone.flight_model() if drone is not None else FlightModel())
+    if max_flight_min is None and drone is not None:
+        max_flight_min = drone.usable_flight_min
+    if max_flight_min is not None:
+        max_flight_min = check_positive("max flight minutes", max_flight_min)
     limits = ViewLimits(security, d_opt, float(max_incidence_deg), scene.ground_z + min_alt, (lo_p, hi_p),
                         camera.vfov_deg, scene.ground_z)
     margin = safety_margin(security)
@@ -275,10 +283,23 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     uncovered = closer.uncovered(check, lost_path=not flyable.all())
     with progress.stage("tour"):
         order = solve_tour(closure)
+    stops = Stops(np.concatenate([[0.0], shots.heading_deg]), np.concatenate([[0.0], shots.pitch_deg]),
+                  float(start[2] - scene.ground_z))
     with progress.stage("legs"):
-        waypoints = _fly(fg, order, pred, direct, scene, limits, margin)
-    route = _route(waypoints, order, shots, specials, camera, scene, limits, gsd, security, min_views,
+        flights = [_fly(fg, order, pred, direct, scene, limits, margin)]
+    single_s = waypoint_times(model, flights[0], stops)["total_s"]
+    single_path = float(np.linalg.norm(np.diff([p for p, _ in flights[0]], axis=0), axis=1).sum())
+    if max_flight_min is not None and single_s > 60.0 * max_flight_min:
+        with progress.stage("battery flights"):
+            flights = split_flights(fg, order, closure, lambda o: _fly(fg, o, pred, direct, scene, limits, margin),
+                                    model, stops, 60.0 * max_flight_min, scene.clearance_model(limits.security),
+                                    limits.security + margin)
+    route = _route(flights, shots, camera, scene, limits, gsd, security, min_views,
                    min_triangulation_deg, max_incidence_deg, min_alt, spacing, uncovered)
+    if drone is not None:
+        route.params["drone"] = drone.name
+    if max_flight_min is not None:
+        route.params["max_flight_min"] = max_flight_min
     if surface_classes:
         route.params["surface_classes"] = list(surface_classes)
     route.params["rule"] = rule
@@ -308,6 +329,10 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
         "d_opt_m": d_opt,
         "lattice_spacing_m": h,
         "orbit_length_m": _orbit_length(scene, distance),
+        "flight_model": model.to_dict(),
+        "flights": flight_table(route, model, max_flight_min),
+        "single_flight_path_m": single_path,
+        "single_flight_min": single_s / 60.0,
     }
     if lp_bound is not None:
         route.metrics["lp_lower_bound_shots"] = lp_bound
@@ -358,35 +383,46 @@ def _fly(fg, order, pred, direct, scene, limits, margin) -> list[tuple[np.ndarra
     return out
 
 
-def _route(waypoints, order, shots, specials, camera, scene, limits, gsd, security, min_views,
+def _route(flights, shots, camera, scene, limits, gsd, security, min_views,
            min_tri, max_inc, min_alt, spacing, uncovered) -> Route:
+    waypoints = [w for flight in flights for w in flight]
+    flight = np.concatenate([np.full(len(f), k) for k, f in enumerate(flights, start=1)])
     pos = np.array([p for p, _ in waypoints])
     special = np.array([s for _, s in waypoints])
     n = len(pos)
-    is_shot = (special > 0) & (np.arange(n) < n - 1)
+    is_shot = special > 0
     heading = np.zeros(n)
     pitch = np.zeros(n)
     shot_idx = special[is_shot] - 1
     heading[is_shot] = shots.heading_deg[shot_idx]
     pitch[is_shot] = shots.pitch_deg[shot_idx]
-    # Transit points face the way they fly; where they go straight up/down keep the last heading.
-    last = 0.0
-    for k in range(n):
-        if is_shot[k]:
-            last = heading[k]
-            continue
-        step = pos[min(k + 1, n - 1)] - pos[k]
-        if np.hypot(step[0], step[1]) > 1e-6:
-            last = float(heading_pitch(np.array([step[0], step[1], 0.0]))[0])
-        heading[k] = last
-    shot_rows = np.flatnonzero(is_shot)
-    first, final = shot_rows[0], shot_rows[-1]
-    legs = ["initial" if k < first else "final" if k > final else "coverage" for k in range(n)]
+    heading = transit_headings(pos, is_shot, heading)
+    legs = []
+    for k in range(1, len(flights) + 1):  # initial / coverage / final within each flight
+        rows = np.flatnonzero(flight == k)
+        shot_rows = rows[is_shot[rows]]
+        first, final = shot_rows[0], shot_rows[-1]
+        legs += ["initial" if r < first else "final" if r > final else "coverage" for r in rows]
     params = {"gsd_m": gsd, "security_m": security, "min_views": min_views,
               "min_triangulation_deg": min_tri, "max_incidence_deg": max_inc,
               "min_altitude_m": min_alt, "ground_z_m": scene.ground_z,
               "gimbal_pitch_range_deg": list(limits.pitch_range_deg), "sample_spacing_m": spacing}
-    return Route(pos, is_shot, heading, pitch, legs, camera, params, frame=scene.frame, uncovered=uncovered)
+    return Route(pos, is_shot, heading, pitch, legs, camera, params, frame=scene.frame, uncovered=uncovered,
+                 flight=flight)
+
+
+def _gimbal_range(given, drone) -> tuple[float, float]:
+    """The gimbal pitch range to plan with: the one given, else the drone's, else -90..30."""
+    rng = given if given is not None else (drone.gimbal_pitch_deg if drone is not None else (-90.0, 30.0))
+    lo, hi = (float(v) for v in rng)
+    if not -90.0 <= lo <= hi <= 90.0:
+        raise ParameterError(f"gimbal pitch range must lie in [-90, 90] with min <= max, got {tuple(rng)}")
+    if given is not None and drone is not None:
+        d_lo, d_hi = drone.gimbal_pitch_deg
+        if lo < d_lo or hi > d_hi:
+            raise ParameterError(f"gimbal pitch range {lo:g}..{hi:g} deg is beyond the {drone.label}'s "
+                                 f"{d_lo:g}..{d_hi:g} deg")
+    return lo, hi
 
 
 def _final_check(route: Route, scene, limits: ViewLimits) -> None:

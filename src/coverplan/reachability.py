@@ -76,8 +76,10 @@ def test_probes(scene, points, normals, owner, positions, rays, limits: ViewLimi
     """Status per probe (OK / LOW / GIMBAL / OCCLUDED / UNSAFE) and the mesh that caused it."""
     status = np.full(len(positions), OK, dtype=np.int8)
     culprit = np.full(len(positions), -1, dtype=np.int64)
-    status[positions[:, 2] < limits.min_z] = LOW
-    status[(status == OK) & ~limits.elevation_ok(rays)] = GIMBAL
+    # The gimbal first: a probe the gimbal cannot aim from is GIMBAL at any altitude, so LOW
+    # means "the gimbal could, the altitude floor forbids it" and the two reasons stay apart.
+    status[~limits.elevation_ok(rays)] = GIMBAL
+    status[(status == OK) & (positions[:, 2] < limits.min_z)] = LOW
     start = points[owner] + normals[owner] * scene.epsilon * 4
     blocked = scene.rays.segments_blocked(start, positions)
     status[blocked] = OCCLUDED
@@ -151,8 +153,11 @@ def explain(scene, status, culprit) -> str:
         return "the ground" if top == GROUND else scene.describe(top)
     if (status == UNSAFE).any():
         return f"no viewpoint within d_opt keeps the security distance from {most_common(status == UNSAFE)}"
-    if (status == LOW).any():
+    low, gimbal = (status == LOW).any(), (status == GIMBAL).any()
+    if low and gimbal:  # either setting may be what blocks: say both
+        return "visible only from below the minimum altitude or at a gimbal pitch outside its range"
+    if low:
         return "visible only from below the minimum altitude"
-    if (status == GIMBAL).any():
+    if gimbal:
         return "visible only at a gimbal pitch outside its range"
     return f"occluded by {most_common(status == OCCLUDED)}"

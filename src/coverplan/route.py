@@ -47,6 +47,7 @@ class Route:
     uncovered: list[dict] = field(default_factory=list)
     metrics: dict = field(default_factory=dict)
     extra: dict = field(default_factory=dict)
+    flight: np.ndarray | None = None  # (n,) 1, 2, ...: the battery flight of each waypoint
 
     def __post_init__(self):
         self.positions = np.asarray(self.positions, dtype=float).reshape(-1, 3)
@@ -57,6 +58,8 @@ class Route:
             self.view_dir = view_direction(self.heading_deg, self.pitch_deg)
         self.view_dir = np.asarray(self.view_dir, dtype=float).reshape(-1, 3)
         self.leg = list(self.leg)
+        self.flight = np.ones(len(self.positions), dtype=int) if self.flight is None else \
+            np.asarray(self.flight, dtype=int).reshape(-1)
 
     def __len__(self) -> int:
         return len(self.positions)
@@ -73,6 +76,21 @@ class Route:
     def coverage_length(self) -> float:
         """Length from the first shot to the last (the thesis's tables count only this)."""
         return coverage_length(self.positions, self.shot)
+
+    @property
+    def n_flights(self) -> int:
+        return int(self.flight.max()) if len(self.flight) else 0
+
+    def flight_rows(self) -> list[np.ndarray]:
+        """Waypoint rows of each battery flight, in order (each from the start point back to it)."""
+        return [np.flatnonzero(self.flight == k) for k in range(1, self.n_flights + 1)]
+
+    def flight_route(self, k: int) -> "Route":
+        """Flight ``k`` (1-based) alone, as a route of its own."""
+        rows = np.flatnonzero(self.flight == k)
+        return Route(self.positions[rows], self.shot[rows], self.heading_deg[rows], self.pitch_deg[rows],
+                     [self.leg[r] for r in rows], self.camera, dict(self.params), view_dir=self.view_dir[rows],
+                     frame=self.frame, metrics={}, extra=dict(self.extra))
 
     def flight_minutes(self, speed: float, shot_seconds: float) -> float:
         """The simple estimate: the path at ``speed`` m/s plus ``shot_seconds`` per photo."""
@@ -96,6 +114,7 @@ class Route:
     # -- file format -----------------------------------------------------------------
     def to_dict(self) -> dict:
         waypoints = []
+        several = self.n_flights > 1
         for k in range(len(self)):
             waypoints.append({
                 "position": _round(self.positions[k], 4),
@@ -104,6 +123,7 @@ class Route:
                 "heading_deg": round(float(self.heading_deg[k]), 4),
                 "gimbal_pitch_deg": round(float(self.pitch_deg[k]), 4),
                 "leg": self.leg[k],
+                **({"flight": int(self.flight[k])} if several else {}),
             })
         d = {
             "format": FORMAT, "version": VERSION, "units": "m",
@@ -160,7 +180,7 @@ class Route:
         waypoints = _require(data, "waypoints", list, path)
         if not waypoints:
             raise RouteFormatError(path, "has no waypoints")
-        pos, shot, vdir, head, pitch, leg = [], [], [], [], [], []
+        pos, shot, vdir, head, pitch, leg, flight = [], [], [], [], [], [], []
         for k, wp in enumerate(waypoints):
             if not isinstance(wp, dict):
                 raise RouteFormatError(path, f"waypoint {k} is not an object")
@@ -188,6 +208,14 @@ class Route:
             if lg not in LEGS:
                 raise RouteFormatError(path, f"waypoint {k} leg {lg!r} is not one of {', '.join(LEGS)}")
             leg.append(lg)
+            fl = wp.get("flight", 1)
+            whole = isinstance(fl, int) and not isinstance(fl, bool) and fl >= 1
+            if not whole or (flight and fl not in (flight[-1], flight[-1] + 1)):
+                raise RouteFormatError(path, f"waypoint {k} flight {fl!r} must be a whole number >= 1 that stays or "
+                                             "goes up by one from the waypoint before")
+            flight.append(fl)
+        if flight[0] != 1:
+            raise RouteFormatError(path, "the first waypoint must be in flight 1")
         frame = data.get("frame") or {"crs": None, "origin": [0.0, 0.0, 0.0]}
         if not isinstance(frame, dict):
             raise RouteFormatError(path, "'frame' must be an object")
@@ -201,7 +229,7 @@ class Route:
         vdir /= np.linalg.norm(vdir, axis=1, keepdims=True)
         return cls(np.array(pos), np.array(shot), np.array(head), np.array(pitch), leg, camera, dict(params),
                    view_dir=vdir, frame=frame, uncovered=uncovered, metrics=data.get("metrics") or {},
-                   extra=data.get("planner") or {})
+                   extra=data.get("planner") or {}, flight=np.array(flight))
 
     def evaluate(self, scene, **options):
         """The evaluator's verdict on this route in ``scene`` (see coverplan.evaluate)."""

@@ -165,7 +165,7 @@ def writer_names() -> list[str]:
     return sorted(_WRITERS)
 
 
-GEOGRAPHIC_FORMATS = {"qgc", "wpl", "litchi", "kml", "geojson"}  # need the route placed on Earth
+GEOGRAPHIC_FORMATS = {"qgc", "wpl", "litchi", "kml", "geojson", "wpml"}  # need the route placed on Earth
 
 
 def parse_formats(text: str | None) -> list[str]:
@@ -181,22 +181,40 @@ def parse_formats(text: str | None) -> list[str]:
 
 
 def export_route(route, stem, formats, **options) -> list[Path]:
-    """Write ``route`` in each format as STEM + the format's suffix."""
+    """Write ``route`` in each format as STEM + the format's suffix; a route of several battery
+    flights as one file per flight, STEM.f1 + suffix, STEM.f2 + suffix, ... Nothing is written
+    when a flight has more waypoints than a format's app takes."""
+    from ..drones import WAYPOINT_LIMITS
+    from ..errors import ParameterError
+    flights = [route] if route.n_flights <= 1 else [route.flight_route(k) for k in range(1, route.n_flights + 1)]
+    for name in formats:
+        limit = WAYPOINT_LIMITS.get(name)
+        for k, flight in enumerate(flights, start=1):
+            if limit is not None and len(flight) > limit:
+                which = f"flight {k} has" if len(flights) > 1 else "the flight has"
+                raise ParameterError(f"{which} {len(flight)} waypoints, but {name} missions take at most {limit}; "
+                                     "plan shorter flights (--max-flight-min) or export another format")
     written = []
     for name in formats:
         func, suffix = writer(name)
-        written += func(route, f"{stem}{suffix}", **options)
+        for k, flight in enumerate(flights, start=1):
+            written += func(flight, f"{stem}{'' if len(flights) == 1 else f'.f{k}'}{suffix}", **options)
     return written
 
 
 def write_atomic(path, text: str) -> Path:
     """Write a text file so readers never see half of it: temporary file, fsync, rename."""
+    return write_atomic_bytes(path, text.encode("utf-8"))
+
+
+def write_atomic_bytes(path, data: bytes) -> Path:
+    """Write a file so readers never see half of it: temporary file, fsync, rename."""
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
     try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as handle:
-            handle.write(text)
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
             handle.flush()
             os.fsync(handle.fileno())
         umask = os.umask(0)
@@ -212,4 +230,4 @@ def write_atomic(path, text: str) -> Path:
 
 def _load_plugins() -> None:
     # Importing the modules registers their readers and writers.
-    from . import citygml, cityjson, csv_waypoints, geojson, kml, litchi, meshes, qgc  # noqa: F401
+    from . import citygml, cityjson, csv_waypoints, geojson, kml, litchi, meshes, qgc, wpml  # noqa: F401

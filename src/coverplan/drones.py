@@ -1,0 +1,121 @@
+"""Drone profiles: the camera, gimbal, speeds, battery and mission limits of drones people fly.
+
+Facts are from the makers' published specifications, named beside each value; values that
+are our own working assumptions (acceleration, rotation rates, the battery reserve) say so.
+Rated flight times are hover or best-speed figures without wind down to an empty battery;
+``usable_flight_min`` keeps ``reserve`` of that for wind, the return and a landing with charge
+left, and is the default length of one flight (``--max-flight-min``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+from .camera import PRESETS, Camera
+from .errors import ParameterError
+from .flighttime import FlightModel
+
+RESERVE = 0.30  # of the rated flight time; DJI apps warn at 30 % battery by default
+
+
+@dataclass(frozen=True)
+class DroneProfile:
+    name: str
+    label: str
+    camera: Camera
+    gimbal_pitch_deg: tuple[float, float]  # lowest, highest pitch the planner may use
+    max_speed: float  # m/s
+    ascent_speed: float  # m/s, maximum
+    descent_speed: float  # m/s, maximum
+    rated_flight_min: float
+    photo_interval_s: float  # shortest time between two photos
+    apps: tuple[str, ...]  # export formats of the apps that fly it
+    wpml: tuple[int, int, int] | None = None  # DJI WPML droneEnumValue, droneSubEnumValue, payloadEnumValue
+    image_format: str = "wide"  # WPML payloadParam imageFormat
+    cruise_speed: float = 5.0  # m/s between waypoints near a building: our default, not a limit
+    acceleration: float = 2.0  # m/s²: assumption, gentle for photo stops
+    yaw_rate_deg: float = 60.0  # deg/s: assumption
+    gimbal_rate_deg: float = 60.0  # deg/s: assumption
+    sources: tuple[str, ...] = field(default_factory=tuple)
+    reserve: float = RESERVE
+
+    @property
+    def usable_flight_min(self) -> float:
+        return round(self.rated_flight_min * (1.0 - self.reserve), 1)
+
+    def flight_model(self, cruise_speed: float | None = None) -> FlightModel:
+        """The time model for this drone; ``cruise_speed`` (m/s) overrides the default."""
+        speed = self.cruise_speed if cruise_speed is None else float(cruise_speed)
+        if not 0 < speed <= self.max_speed:
+            raise ParameterError(f"speed {speed:g} m/s is outside what the {self.label} flies (0, {self.max_speed:g}]")
+        return FlightModel(cruise_speed=speed, acceleration=self.acceleration,
+                           ascent_speed=min(self.ascent_speed, 3.0), descent_speed=min(self.descent_speed, 2.0),
+                           yaw_rate_deg=self.yaw_rate_deg, gimbal_rate_deg=self.gimbal_rate_deg,
+                           photo_seconds=max(self.photo_interval_s, 1.0))
+
+
+DRONES: dict[str, DroneProfile] = {
+    "m3e": DroneProfile(
+        name="m3e", label="DJI Mavic 3 Enterprise", camera=PRESETS["mavic3e"],
+        # Gimbal tilt -90 to +35 deg, max horizontal speed 15 m/s (normal mode), ascent 6 m/s,
+        # descent 6 m/s, max flight time 45 min, mechanical shutter, JPEG interval 0.7 s:
+        # DJI Mavic 3 Enterprise specifications (enterprise.dji.com/mavic-3-enterprise/specs).
+        gimbal_pitch_deg=(-90.0, 35.0), max_speed=15.0, ascent_speed=6.0, descent_speed=6.0,
+        rated_flight_min=45.0, photo_interval_s=0.7, apps=("wpml",),
+        # droneEnumValue 77 / sub 0 (M3E), payloadEnumValue 66 (Mavic 3E camera): DJI WPML
+        # common elements, droneInfo and payloadInfo.
+        wpml=(77, 0, 66), image_format="wide",
+        sources=("DJI Mavic 3 Enterprise specifications", "DJI WPML common elements")),
+    "m350-p1": DroneProfile(
+        name="m350-p1", label="DJI Matrice 350 RTK with Zenmuse P1 (35 mm)", camera=PRESETS["zenmuse-p1-35"],
+        # M350 RTK: max horizontal speed 23 m/s, ascent 6 m/s, descent 5 m/s, max flight time
+        # 55 min without payload (DJI Matrice 350 RTK specifications). With the P1 (about 0.8 kg)
+        # we assume 45 min: our estimate, not a published figure; override with --max-flight-min. P1 gimbal tilt
+        # -125 to +40 deg mechanical; planned within -90 to +30. Photo interval 0.7 s (DJI
+        # Zenmuse P1 specifications).
+        gimbal_pitch_deg=(-90.0, 30.0), max_speed=23.0, ascent_speed=6.0, descent_speed=5.0,
+        rated_flight_min=45.0, photo_interval_s=0.7, apps=("wpml",),
+        # droneEnumValue 89 (M350 RTK): DJI WPML common elements. payloadEnumValue 50 (Zenmuse
+        # P1): DJI Cloud API product support, payload enumeration (the WPML table lists only the
+        # H20/H30/M3 cameras).
+        wpml=(89, 0, 50), image_format="visible",
+        sources=("DJI Matrice 350 RTK specifications", "DJI Zenmuse P1 specifications",
+                 "DJI WPML common elements", "DJI Cloud API product support")),
+    "phantom4pro": DroneProfile(
+        name="phantom4pro", label="DJI Phantom 4 Pro V2.0", camera=PRESETS["phantom4pro"],
+        # Gimbal pitch -90 to +30 deg, max speed 14 m/s (P-mode), ascent 5 m/s and descent
+        # 3 m/s (P-mode), max flight time 30 min, shortest JPEG interval 2 s: DJI Phantom 4 Pro
+        # V2.0 specifications. Flown with Litchi, whose missions take at most 99 waypoints.
+        gimbal_pitch_deg=(-90.0, 30.0), max_speed=14.0, ascent_speed=5.0, descent_speed=3.0,
+        rated_flight_min=30.0, photo_interval_s=2.0, apps=("litchi",),
+        sources=("DJI Phantom 4 Pro V2.0 specifications", "Litchi mission hub documentation")),
+}
+
+# Waypoints one mission of each app takes: Litchi (DJI Mobile SDK waypoint missions) 99;
+# DJI WPML numbers waypoints 0..65535 (wpml:index, DJI WPML reference).
+WAYPOINT_LIMITS = {"litchi": 99, "wpml": 65536}
+
+
+def get_drone(name: str) -> DroneProfile:
+    """The profile called ``name``; the error lists the profiles that exist."""
+    try:
+        return DRONES[name.lower()]
+    except KeyError:
+        raise ParameterError(f"unknown drone {name!r}; drones: {', '.join(sorted(DRONES))} "
+                             "(see 'coverplan drones')") from None
+
+
+def with_gimbal(drone: DroneProfile, lowest: float, highest: float) -> DroneProfile:
+    """The profile with another gimbal range (a gimbal that cannot look up, say)."""
+    return replace(drone, gimbal_pitch_deg=(float(lowest), float(highest)))
+
+
+def drones_table() -> str:
+    rows = [("name", "drone", "camera", "gimbal deg", "speed m/s", "flight min", "photo s", "apps")]
+    for d in DRONES.values():
+        rows.append((d.name, d.label, d.camera.name or "", f"{d.gimbal_pitch_deg[0]:g}..{d.gimbal_pitch_deg[1]:+g}",
+                     f"{d.cruise_speed:g} (max {d.max_speed:g})",
+                     f"{d.usable_flight_min:g} of {d.rated_flight_min:g}", f"{d.photo_interval_s:g}",
+                     ", ".join(d.apps)))
+    widths = [max(len(r[k]) for r in rows) for k in range(len(rows[0]))]
+    return "\n".join("  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in rows)

@@ -1,0 +1,239 @@
+"""DJI WPML missions (.kmz) for DJI Pilot 2 and FlightHub 2: ``wpmz/template.kml`` and
+``wpmz/waylines.wpml`` as DJI's public WPML reference (Cloud API documentation) describes them.
+
+One waypoint per route waypoint, none dropped; the aircraft stops at each
+(toPointAndStopWithDiscontinuityCurvature), so it flies the planner's straight, checked
+segments. Headings turn evenly along each leg to the next waypoint's (smoothTransition); at
+a photo the action group turns the aircraft to its heading, the gimbal to its pitch, and
+takes the photo. The flight ends at the start point, directly above the take-off point, and
+lands there (finishAction autoLand); on signal loss it carries on with the mission
+(exitOnRCLost goContinue), whose every segment is known to be safe.
+
+Heights (``heights``): "relative" (default) to the take-off point (relativeToStartPoint),
+or "egm96": template heights above the EGM96 geoid, executed as WGS84 ellipsoidal heights;
+that needs a scene with a height datum and PROJ's geoid grids (geo.ellipsoidal_and_egm96).
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import time
+import zipfile
+from pathlib import Path
+
+import numpy as np
+from lxml import etree
+
+from . import register_writer
+from .flight import geo_flight
+
+KML = "http://www.opengis.net/kml/2.2"
+WPML = "http://www.dji.com/wpmz/1.0.2"
+HEIGHT_MODES = ("relative", "egm96")
+
+
+def _w(tag: str) -> str:
+    return f"{{{WPML}}}{tag}"
+
+
+def _add(parent, tag: str, text=None, kml: bool = False):
+    el = etree.SubElement(parent, f"{{{KML}}}{tag}" if kml else _w(tag))
+    if text is not None:
+        el.text = _text(text)
+    return el
+
+
+def _text(v) -> str:
+    if isinstance(v, (bool, np.bool_)):
+        return "1" if v else "0"
+    if isinstance(v, (int, np.integer)):
+        return str(int(v))
+    if isinstance(v, (float, np.floating)):
+        return f"{float(v):.3f}".rstrip("0").rstrip(".") or "0"
+    return str(v)
+
+
+def signed_heading(deg) -> np.ndarray:
+    """Degrees clockwise from north in [-180, 180), as WPML wants them."""
+    return (np.asarray(deg, dtype=float) + 180.0) % 360.0 - 180.0
+
+
+def _drone_for(route, drone):
+    from ..drones import get_drone
+    from ..errors import ParameterError
+    name = drone or route.params.get("drone")
+    if not name:
+        raise ParameterError("WPML export needs the drone: plan (or export) with --drone "
+                             "(see 'coverplan drones'; m3e and m350-p1 fly WPML missions)")
+    profile = get_drone(name) if isinstance(name, str) else name
+    if profile.wpml is None:
+        raise ParameterError(f"the {profile.label} does not fly DJI WPML missions (its app: "
+                             f"{', '.join(profile.apps)}); choose another --export format")
+    return profile
+
+
+def _heights(route, f, heights: str):
+    """(template height, template ellipsoid height, executed height, template mode, executed mode)."""
+    from ..errors import ParameterError
+    if heights == "relative":
+        rel = f.alt_rel  # above the take-off point; the ellipsoid height field repeats it (no datum used)
+        return rel, rel, rel, "relativeToStartPoint", "relativeToStartPoint"
+    if heights == "egm96":
+        from ..geo import ellipsoidal_and_egm96
+        _lon, _lat, h_ell, h_egm = ellipsoidal_and_egm96(route.frame, route.positions)
+        return h_egm, h_ell, h_ell, "EGM96", "WGS84"
+    raise ParameterError(f"WPML heights must be one of {', '.join(HEIGHT_MODES)}, got {heights!r}")
+
+
+def _mission_config(doc, profile, f, speed: float, rth_height: float) -> None:
+    cfg = _add(doc, "missionConfig")
+    _add(cfg, "flyToWaylineMode", "safely")
+    _add(cfg, "finishAction", "autoLand")
+    _add(cfg, "exitOnRCLost", "goContinue")
+    _add(cfg, "executeRCLostAction", "hover")
+    _add(cfg, "takeOffSecurityHeight", max(1.2, round(float(f.alt_rel[0]), 1)))
+    _add(cfg, "globalTransitionalSpeed", speed)
+    _add(cfg, "globalRTHHeight", rth_height)
+    drone_enum, sub_enum, payload_enum = profile.wpml
+    info = _add(cfg, "droneInfo")
+    _add(info, "droneEnumValue", drone_enum)
+    _add(info, "droneSubEnumValue", sub_enum)
+    payload = _add(cfg, "payloadInfo")
+    _add(payload, "payloadEnumValue", payload_enum)
+    _add(payload, "payloadPositionIndex", 0)
+
+
+def _heading_param(parent, heading: float) -> None:
+    hp = _add(parent, "waypointHeadingParam")
+    _add(hp, "waypointHeadingMode", "smoothTransition")
+    _add(hp, "waypointHeadingAngle", round(float(heading), 2))
+    _add(hp, "waypointPoiPoint", "0.000000,0.000000,0.000000")
+    _add(hp, "waypointHeadingPathMode", "followBadArc")
+
+
+def _actions(parent, group_id: int, index: int, heading: float, pitch: float, prev_heading: float, photo: int,
+             lens: str) -> None:
+    group = _add(parent, "actionGroup")
+    _add(group, "actionGroupId", group_id)
+    _add(group, "actionGroupStartIndex", index)
+    _add(group, "actionGroupEndIndex", index)
+    _add(group, "actionGroupMode", "sequence")
+    _add(_add(group, "actionTrigger"), "actionTriggerType", "reachPoint")
+    turn = (heading - prev_heading + 180.0) % 360.0 - 180.0
+    steps = [("rotateYaw", [("aircraftHeading", round(float(heading), 2)),
+                            ("aircraftPathMode", "clockwise" if turn >= 0 else "counterClockwise")]),
+             ("gimbalRotate", [("gimbalHeadingYawBase", "north"), ("gimbalRotateMode", "absoluteAngle"),
+                               ("gimbalPitchRotateEnable", 1), ("gimbalPitchRotateAngle", round(float(pitch), 2)),
+                               ("gimbalRollRotateEnable", 0), ("gimbalRollRotateAngle", 0),
+                               ("gimbalYawRotateEnable", 0), ("gimbalYawRotateAngle", 0),
+                               ("gimbalRotateTimeEnable", 0), ("gimbalRotateTime", 0),
+                               ("payloadPositionIndex", 0)]),
+             ("takePhoto", [("payloadPositionIndex", 0), ("fileSuffix", f"coverplan{photo:04d}"),
+                            ("payloadLensIndex", lens), ("useGlobalPayloadLensIndex", 0)])]
+    for action_id, (func, params) in enumerate(steps):
+        action = _add(group, "action")
+        _add(action, "actionId", action_id)
+        _add(action, "actionActuatorFunc", func)
+        fp = _add(action, "actionActuatorFuncParam")
+        for tag, value in params:
+            _add(fp, tag, value)
+
+
+def _placemark(folder, k, f, heading, executed: bool, heights, speed, action_state, lens) -> None:
+    pm = etree.SubElement(folder, f"{{{KML}}}Placemark")
+    point = _add(pm, "Point", kml=True)
+    _add(point, "coordinates", f"{f.lon[k]:.9f},{f.lat[k]:.9f}", kml=True)
+    _add(pm, "index", k)
+    height, ellipsoid, execute = heights
+    if executed:
+        _add(pm, "executeHeight", round(float(execute[k]), 3))
+        _add(pm, "waypointSpeed", speed)
+        _heading_param(pm, heading[k])
+        turn = _add(pm, "waypointTurnParam")
+        _add(turn, "waypointTurnMode", "toPointAndStopWithDiscontinuityCurvature")
+        _add(turn, "waypointTurnDampingDist", 0)
+        _add(pm, "useStraightLine", 1)
+    else:
+        _add(pm, "useGlobalHeight", 0)
+        _add(pm, "ellipsoidHeight", round(float(ellipsoid[k]), 3))
+        _add(pm, "height", round(float(height[k]), 3))
+        _add(pm, "useGlobalSpeed", 1)
+        _add(pm, "useGlobalHeadingParam", 0)
+        _heading_param(pm, heading[k])
+        _add(pm, "useGlobalTurnParam", 1)
+        _add(pm, "useStraightLine", 1)
+        _add(pm, "gimbalPitchAngle", round(float(f.pitch[k]), 2))
+    if f.shot[k]:
+        prev = heading[k - 1] if k else heading[k]
+        _actions(pm, action_state["group"], k, heading[k], f.pitch[k], prev, action_state["photo"], lens)
+        action_state["group"] += 1
+        action_state["photo"] += 1
+
+
+def _document(route, f, profile, heights, modes, speed: float, executed: bool) -> bytes:
+    root = etree.Element(f"{{{KML}}}kml", nsmap={None: KML, "wpml": WPML})
+    doc = etree.SubElement(root, f"{{{KML}}}Document")
+    if not executed:
+        now = int(time.time() * 1000)
+        _add(doc, "author", "coverplan")
+        _add(doc, "createTime", now)
+        _add(doc, "updateTime", now)
+    rth = float(math.ceil(float(np.max(f.alt_rel)) + route.security + 5.0))
+    _mission_config(doc, profile, f, speed, rth)
+    folder = etree.SubElement(doc, f"{{{KML}}}Folder")
+    heading = signed_heading(f.heading_true)
+    _add(folder, "templateId", 0)
+    if executed:
+        _add(folder, "executeHeightMode", modes[1])
+        _add(folder, "waylineId", 0)
+        _add(folder, "autoFlightSpeed", speed)
+    else:
+        _add(folder, "templateType", "waypoint")
+        sys_param = _add(folder, "waylineCoordinateSysParam")
+        _add(sys_param, "coordinateMode", "WGS84")
+        _add(sys_param, "heightMode", modes[0])
+        _add(sys_param, "positioningType", "GPS")
+        _add(folder, "autoFlightSpeed", speed)
+        _add(folder, "globalHeight", round(float(heights[0][0]), 3))
+        _add(folder, "gimbalPitchMode", "usePointSetting")
+        ghp = _add(folder, "globalWaypointHeadingParam")
+        _add(ghp, "waypointHeadingMode", "followWayline")
+        _add(ghp, "waypointHeadingAngle", 0)
+        _add(ghp, "waypointPoiPoint", "0.000000,0.000000,0.000000")
+        _add(ghp, "waypointHeadingPathMode", "followBadArc")
+        _add(folder, "globalWaypointTurnMode", "toPointAndStopWithDiscontinuityCurvature")
+        _add(folder, "globalUseStraightLine", 1)
+        payload = _add(folder, "payloadParam")
+        _add(payload, "payloadPositionIndex", 0)
+        _add(payload, "imageFormat", profile.image_format)
+    state = {"group": 0, "photo": 1}
+    for k in range(len(f)):
+        _placemark(folder, k, f, heading, executed, heights, speed, state, profile.image_format)
+    return etree.tostring(root, xml_declaration=True, encoding="UTF-8", pretty_print=True)
+
+
+def wpml_files(route, drone=None, speed: float | None = None, heights: str = "relative") -> dict[str, bytes]:
+    """The two XML files of the mission, by their path inside the .kmz."""
+    from ..errors import ParameterError
+    profile = _drone_for(route, drone)
+    speed = float(speed if speed is not None else profile.cruise_speed)
+    if not 0 < speed <= min(profile.max_speed, 15.0):
+        raise ParameterError(f"WPML speed must be in (0, {min(profile.max_speed, 15.0):g}] m/s, got {speed:g}")
+    f = geo_flight(route)
+    h_template, h_ellipsoid, h_execute, mode_t, mode_x = _heights(route, f, heights)
+    hs = (h_template, h_ellipsoid, h_execute)
+    return {"wpmz/template.kml": _document(route, f, profile, hs, (mode_t, mode_x), speed, executed=False),
+            "wpmz/waylines.wpml": _document(route, f, profile, hs, (mode_t, mode_x), speed, executed=True)}
+
+
+@register_writer("wpml", ".kmz")
+def write_wpml(route, path, drone=None, speed: float | None = None, wpml_heights: str = "relative",
+               **_ignored) -> list[Path]:
+    from . import write_atomic_bytes
+    files = wpml_files(route, drone, speed, wpml_heights)
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w", compression=zipfile.ZIP_DEFLATED) as kmz:
+        for name, data in files.items():
+            kmz.writestr(name, data)
+    return [write_atomic_bytes(path, buffer.getvalue())]
