@@ -143,7 +143,31 @@ ROWS = {
     "batch: not a city file": (lambda t: ["batch", L, "--all", *PLAN, "-o", t / "out"], ["l_prism.obj", "not a city model"]),
     "batch: --workers 0": (lambda t: ["batch", CITY / "lod2_buildings_v2.json.gz", "--all", "--workers", "0", *PLAN,
                                       "-o", t / "out"], ["--workers must be at least 1"]),
+    "unknown drone": (lambda t: ["plan", L, "--drone", "m4x", "--gsd", "0.004", "--security", "3", "-o", t / "r.json"],
+                      ["unknown drone 'm4x'", "m3e"]),
+    "--drone with --camera": (lambda t: ["plan", L, "--drone", "m3e", *PLAN, "-o", t / "r.json"],
+                              ["--drone m3e brings its camera"]),
+    "flight limit too short": (lambda t: ["plan", L, "--drone", "m3e", "--gsd", "0.004", "--security", "3",
+                                          "--max-flight-min", "0.2", "-o", t / "r.json"],
+                               ["too short to reach the nearest shot and return", "--max-flight-min"]),
+    "more waypoints than the app takes": (lambda t: ["export", _long_route(t), "--format", "litchi", "--crs",
+                                                     "EPSG:25832"], ["120 waypoints", "at most 99", "--max-flight-min"]),
+    "WPML export without a drone": (lambda t: ["export", _long_route(t), "--format", "wpml", "--crs", "EPSG:25832"],
+                                    ["needs the drone", "--drone"]),
+    "WPML for a drone that flies no WPML": (lambda t: ["export", _long_route(t, 3), "--format", "wpml", "--crs",
+                                                       "EPSG:25832", "--drone", "phantom4pro"],
+                                            ["does not fly DJI WPML", "litchi"]),
+    "EGM96 heights without a height datum": (lambda t: ["export", _long_route(t, 3), "--format", "wpml", "--crs",
+                                                        "EPSG:25832", "--drone", "m3e", "--wpml-heights", "egm96"],
+                                             ["EGM96 heights need", "datum"]),
 }
+
+
+def _long_route(tmp_path, n: int = 120):
+    """A hand-written route of ``n`` waypoints along a line, every other one a photo."""
+    wps = [{"position": [2.0 * k, 0, 10], "shot": k % 2 == 1, "heading_deg": 0, "gimbal_pitch_deg": -10,
+            "leg": "coverage"} for k in range(n)]
+    return route_file(tmp_path, waypoints=wps)
 
 
 def _big_box(tmp_path):

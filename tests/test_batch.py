@@ -111,7 +111,7 @@ def test_rerun_completes_only_the_missing_buildings(first_run, three):
     # other settings make other routes: nothing is skipped then
     again = run_batch(CITY, out, settings(), buildings=three[:1], workers=1)
     assert again.skipped == 1
-    changed = settings(report=True)
+    changed = settings(lod=1)
     assert completed_row(out, result.rows[0]["folder"], changed.fingerprint()) is None
 
 

@@ -123,10 +123,29 @@ def road_map_rows(route, ground_z: float) -> str:
     for k in range(len(route)):
         x, y, z = route.positions[k]
         shot = "yes" if route.shot[k] else ""
-        rows.append(f"<tr><td>{k}</td><td>{x:.2f}</td><td>{y:.2f}</td><td>{z:.2f}</td><td>{z - ground_z:.2f}</td>"
+        rows.append(f"<tr><td>{k}</td><td>{route.flight[k]}</td><td>{x:.2f}</td><td>{y:.2f}</td><td>{z:.2f}</td><td>{z - ground_z:.2f}</td>"
                     f"<td>{route.heading_deg[k]:.1f}</td><td>{route.pitch_deg[k]:.1f}</td><td class=l>{shot}</td>"
                     f"<td class=l>{route.leg[k]}</td></tr>")
     return "\n".join(rows)
+
+
+def flights_section(route) -> str:
+    """Each battery flight: time by the flight-time model, photos, path, share of the limit."""
+    from ..flights import flight_table
+    from ..flighttime import FlightModel
+    model = FlightModel(**(route.metrics or {}).get("flight_model", {}))
+    limit = route.params.get("max_flight_min")
+    rows = []
+    for f in flight_table(route, model, limit):
+        share = f"{f['limit_share_pct']:.0f} %" if f["limit_share_pct"] is not None else "no limit set"
+        rows.append(f"<tr><td>{f['flight']}</td><td>{f['minutes']:.1f}</td><td>{f['shots']}</td>"
+                    f"<td>{f['waypoints']}</td><td>{f['path_m']:,.0f}</td><td>{share}</td></tr>")
+    drone = route.params.get("drone")
+    how = (f"{model.cruise_speed:g} m/s between waypoints, stopping at each, {model.photo_seconds:g} s per photo"
+           + (f", drone {html.escape(drone)}" if drone else "") + (f"; limit {limit:g} min per flight" if limit else ""))
+    return (f"<p>Minutes by the flight-time model ({how}; docs/flights.md). Every flight takes off from the "
+            f"start point and lands there.</p><table><tr><th>flight</th><th>min</th><th>shots</th><th>waypoints</th>"
+            f"<th>path m</th><th>of the limit</th></tr>{''.join(rows)}</table>")
 
 
 def uncovered_rows(evaluation) -> str:
@@ -213,10 +232,11 @@ minimum clearance {evaluation.metrics['min_clearance_m']:.2f} m
 <section><h2>Metrics</h2><table>{_rows(metrics_rows(evaluation.metrics))}</table></section>
 <section><h2>Not covered, and why</h2><table><tr><th class=l>reason</th><th>samples</th><th>m²</th><th>around</th></tr>
 {uncovered_rows(evaluation)}</table></section>
+<section><h2>Flights ({route.n_flights})</h2>{flights_section(route)}</section>
 <section><h2>Reconstruction (simulated photos, COLMAP)</h2>{simulation_rows(simulation)}</section>
 </div>
 <section><h2>Road map ({len(route)} waypoints)</h2>
-<div class=scroll><table id="road-map"><thead><tr><th>#</th><th>x</th><th>y</th><th>z</th><th>altitude</th>
+<div class=scroll><table id="road-map"><thead><tr><th>#</th><th>flight</th><th>x</th><th>y</th><th>z</th><th>altitude</th>
 <th>heading °</th><th>gimbal °</th><th class=l>shot</th><th class=l>leg</th></tr></thead>
 <tbody>
 {road_map_rows(route, ground)}
