@@ -85,15 +85,16 @@ DRONES: dict[str, DroneProfile] = {
         name="phantom4pro", label="DJI Phantom 4 Pro V2.0", camera=PRESETS["phantom4pro"],
         # Gimbal pitch -90 to +30 deg, max speed 14 m/s (P-mode), ascent 5 m/s and descent
         # 3 m/s (P-mode), max flight time 30 min, shortest JPEG interval 2 s: DJI Phantom 4 Pro
-        # V2.0 specifications. Flown with Litchi, whose missions take at most 99 waypoints.
+        # V2.0 specifications. Flown with Litchi.
         gimbal_pitch_deg=(-90.0, 30.0), max_speed=14.0, ascent_speed=5.0, descent_speed=3.0,
         rated_flight_min=30.0, photo_interval_s=2.0, apps=("litchi",),
         sources=("DJI Phantom 4 Pro V2.0 specifications", "Litchi mission hub documentation")),
 }
 
-# Waypoints one mission of each app takes: Litchi (DJI Mobile SDK waypoint missions) 99;
-# DJI WPML numbers waypoints 0..65535 (wpml:index, DJI WPML reference).
-WAYPOINT_LIMITS = {"litchi": 99, "wpml": 65536}
+# Waypoints one mission file takes, where the exporter cannot split: DJI WPML numbers them
+# 0..65535 (wpml:index, DJI WPML reference). Litchi's 99 (DJI Mobile SDK waypoint missions) is
+# met by its writer, which splits a flight into consecutive missions (io/litchi.py).
+WAYPOINT_LIMITS = {"wpml": 65536}
 
 
 def get_drone(name: str) -> DroneProfile:

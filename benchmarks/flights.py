@@ -1,0 +1,100 @@
+"""Battery-sized flights and the flight-time model.
+
+Part 1: the courtyard building at 1.5 mm/px with a Mavic 3 Enterprise, split into flights of
+at most 5, 10 and 14 minutes by the model. Per limit: flights, the longest flight by the model,
+whether every flight starts and ends at the start point, whether the flights together take
+exactly the one-flight plan's photos, the evaluator's safety verdict, and the path of all
+flights over the single tour's (the price of landing in between), all from one run.
+
+Part 2: the flight-time model beside the simple estimate (path at 5 m/s plus 1 s per photo)
+on the sample scenes (thesis settings: 80 deg camera, d_opt 7 m, security 3 m), with the
+model's parts: travel (accelerating, cruising, braking at every waypoint), waiting for the
+yaw or gimbal, photos, take-off and landing.
+``--quick``: the ring prism (4 mm/px, 3 m security) at one limit, and three scenes.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+from common import MESHES, table, write_json
+from plan_scenes import SCENES
+
+from coverplan import evaluate, get_camera, load_scene, plan
+from coverplan.drones import get_drone
+from coverplan.flighttime import FlightModel
+
+
+def shot_set(route) -> np.ndarray:
+    return np.unique(np.round(np.column_stack([route.positions, route.heading_deg])[route.shot], 6), axis=0)
+
+
+def split_rows(mesh: str, gsd: float, security: float, limits) -> list[dict]:
+    scene = load_scene(MESHES / mesh)
+    drone = get_drone("m3e")
+    single = plan(scene, drone.camera, gsd=gsd, security=security, drone=drone, max_flight_min=1e6)
+    rows = [{"limit_min": None, "flights": 1, "shots": int(single.shot.sum()),
+             "longest_min": single.metrics["flights"][0]["minutes"], "total_min": single.metrics["single_flight_min"],
+             "path_m": single.path_length, "path_ratio": 1.0, "home": True, "same_shots": True,
+             "safe": evaluate(single, scene).safe, "plan_s": single.metrics["planning_time_s"],
+             "split_s": 0.0}]
+    for limit in limits:
+        route = plan(scene, drone.camera, gsd=gsd, security=security, drone=drone, max_flight_min=limit)
+        start = route.positions[0]
+        home = all(np.allclose(route.positions[r[0]], start) and np.allclose(route.positions[r[-1]], start)
+                   for r in route.flight_rows())
+        minutes = [f["minutes"] for f in route.metrics["flights"]]
+        rows.append({"limit_min": limit, "flights": route.n_flights, "shots": int(route.shot.sum()),
+                     "longest_min": max(minutes), "total_min": sum(minutes), "path_m": route.path_length,
+                     "path_ratio": route.path_length / single.path_length, "home": home,
+                     "same_shots": bool(np.array_equal(shot_set(route), shot_set(single))),
+                     "safe": evaluate(route, scene).safe, "plan_s": route.metrics["planning_time_s"],
+                     "split_s": route.metrics["stage_seconds"].get("battery flights", 0.0)})
+        print(f"  split at {limit} min", flush=True)
+    return rows
+
+
+def model_rows(names) -> list[dict]:
+    camera = get_camera("thesis80")
+    gsd = float(camera.gsd_at(7.0))
+    model = FlightModel()  # 5 m/s, 2 m/s², 1 s per photo
+    rows = []
+    for name in names:
+        target, obstacles = SCENES[name]
+        scene = load_scene(MESHES / target, [MESHES / o for o in obstacles])
+        route = plan(scene, camera, gsd=gsd, security=3.0, flight_model=model)
+        f = route.metrics["flights"][0]
+        simple = route.flight_minutes(5.0, 1.0)
+        rows.append({"scene": name, "shots": f["shots"], "waypoints": f["waypoints"], "path_m": f["path_m"],
+                     "simple_min": simple, "model_min": f["minutes"], "ratio": f["minutes"] / simple,
+                     "travel_min": f["travel_s"] / 60, "wait_min": f["rotation_wait_s"] / 60,
+                     "photos_min": f["photos_s"] / 60, "ground_min": f["takeoff_landing_s"] / 60})
+        print(f"  timed {name}", flush=True)
+    return rows
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--quick", action="store_true")
+    args = parser.parse_args(argv)
+    names = ["square", "gabled", "triangle"] if args.quick else list(SCENES)
+    splits = split_rows("ring_prism.obj", 0.004, 3.0, [3.0]) if args.quick else \
+        split_rows("courtyard.obj", 0.0015, 2.0, [5.0, 10.0, 14.0])
+    print(table(splits, [("limit_min", "limit min", "g"), ("flights", "flights", "d"), ("shots", "shots", "d"),
+                         ("longest_min", "longest min", ".2f"), ("total_min", "total min", ".1f"),
+                         ("path_m", "path m", ".0f"), ("path_ratio", "path x single", ".3f"),
+                         ("home", "start=end", ""), ("same_shots", "same shots", ""), ("safe", "safe", ""),
+                         ("split_s", "split s", ".2f"), ("plan_s", "plan s", ".1f")]))
+    timings = model_rows(names)
+    print(table(timings, [("scene", "scene", ""), ("shots", "shots", "d"), ("waypoints", "waypoints", "d"),
+                          ("path_m", "path m", ".0f"), ("simple_min", "simple min", ".1f"),
+                          ("model_min", "model min", ".1f"), ("ratio", "model/simple", ".2f"),
+                          ("travel_min", "travel", ".1f"), ("wait_min", "yaw/gimbal wait", ".2f"),
+                          ("photos_min", "photos", ".1f"), ("ground_min", "take-off+landing", ".2f")]))
+    path = write_json("flights", args.quick, {"rows": splits, "model_vs_simple": timings})
+    print(f"written {path}")
+
+
+if __name__ == "__main__":
+    main()
