@@ -50,6 +50,21 @@ def test_exported_missions_evaluate_like_the_route(exported, capsys, suffix):
     assert theirs["safe"] == ours["safe"] and theirs["shot_graph"]["components"] == ours["shot_graph"]["components"]
 
 
+def test_exported_wpml_evaluates_like_the_route(tmp_path, capsys):
+    stem = tmp_path / "gabled"
+    assert main(["plan", str(MESHES / "gabled_house.obj"), "--drone", "m3e", "--gsd", str(GSD), "--security",
+                 str(SECURITY), "--crs", CRS, "-o", f"{stem}.json", "--export", "wpml", "--quiet",
+                 "--no-evaluate"]) == 0
+    scene = ["--target", str(MESHES / "gabled_house.obj"), "--crs", CRS]
+    ours = metrics(capsys, ["evaluate", f"{stem}.json", *scene])
+    theirs = metrics(capsys, ["evaluate", f"{stem}.kmz", *scene, "--camera", "mavic3e", "--gsd", str(GSD),
+                              "--security", str(SECURITY)])
+    assert theirs["shots"] == ours["shots"]
+    assert abs(theirs["coverage_pct"] - ours["coverage_pct"]) <= 0.1
+    assert abs(theirs["min_clearance_m"] - ours["min_clearance_m"]) <= 0.01
+    assert theirs["safe"] == ours["safe"]
+
+
 def _utm_to_lonlat(x, y):
     return Transformer.from_crs(CRS, "EPSG:4326", always_xy=True).transform(x, y)
 

@@ -537,7 +537,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser("evaluate", help="check a route's or another app's mission's coverage and safety")
     p.add_argument("route", metavar="ROUTE",
                    help="a coverplan route (.json) or a mission: QGroundControl .plan, QGC WPL .waypoints, "
-                        "Litchi .csv (docs/evaluate.md)")
+                        "Litchi .csv, DJI WPML .kmz (docs/evaluate.md)")
     _add_scene_args(p, targets_positional=False)
     _add_camera_args(p)
     p.add_argument("--gsd", type=float, default=None, metavar="M_PER_PX",

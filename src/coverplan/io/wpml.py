@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
-from . import register_writer
+from . import register_mission_reader, register_writer
 from .flight import geo_flight
 
 KML = "http://www.opengis.net/kml/2.2"
@@ -237,3 +237,55 @@ def write_wpml(route, path, drone=None, speed: float | None = None, wpml_heights
         for name, data in files.items():
             kmz.writestr(name, data)
     return [write_atomic_bytes(path, buffer.getvalue())]
+
+
+# -- reading, for the evaluator ------------------------------------------------------------
+
+@register_mission_reader("kmz")
+def read_wpml(path):
+    """A DJI WPML .kmz as a Mission: the executable waylines.wpml's first wayline, heights
+    relative to the take-off point; photos where a takePhoto action is, with the heading of
+    the group's rotateYaw (else the waypoint's heading angle) and the gimbalRotate pitch."""
+    from ..errors import InputFileError
+    from .missions import TAKEOFF, MissionBuilder
+    try:
+        with zipfile.ZipFile(path) as kmz:
+            data = kmz.read("wpmz/waylines.wpml")
+    except zipfile.BadZipFile:
+        raise InputFileError(path, "is not a DJI WPML mission (not a zip archive)") from None
+    except KeyError:
+        raise InputFileError(path, "is not a DJI WPML mission (no wpmz/waylines.wpml inside)") from None
+    try:
+        root = etree.fromstring(data, parser=etree.XMLParser(resolve_entities=False, no_network=True))
+    except etree.XMLSyntaxError as exc:
+        raise InputFileError(path, f"wpmz/waylines.wpml is not well-formed XML ({exc})") from None
+    ns = {"kml": KML, "wpml": root.nsmap.get("wpml", WPML)}
+    folder = root.find("kml:Document/kml:Folder", ns)
+    if folder is None:
+        raise InputFileError(path, "has no wayline (no Folder in waylines.wpml)")
+    mode = folder.findtext("wpml:executeHeightMode", default="", namespaces=ns)
+    if mode != "relativeToStartPoint":
+        raise InputFileError(path, f"gives heights as {mode or 'nothing'}; only relativeToStartPoint missions can be "
+                                   "evaluated (ellipsoidal heights need the geoid at the site)")
+    b = MissionBuilder(path, "DJI WPML mission")
+    for pm in folder.findall("kml:Placemark", ns):
+        coords = (pm.findtext("kml:Point/kml:coordinates", default="", namespaces=ns) or "").strip().split(",")
+        try:
+            lon, lat = float(coords[0]), float(coords[1])
+            alt = float(pm.findtext("wpml:executeHeight", namespaces=ns))
+        except (IndexError, TypeError, ValueError):
+            raise InputFileError(path, f"waypoint {len(b.rows) + 1} has no readable coordinates or executeHeight") \
+                from None
+        angle = pm.findtext("wpml:waypointHeadingParam/wpml:waypointHeadingAngle", namespaces=ns)
+        b.waypoint(lat, lon, alt, TAKEOFF, heading=float(angle) if angle is not None else np.nan)
+        for action in pm.findall("wpml:actionGroup/wpml:action", ns):
+            func = action.findtext("wpml:actionActuatorFunc", namespaces=ns)
+            param = action.find("wpml:actionActuatorFuncParam", ns)
+            if func == "rotateYaw" and param is not None:
+                b.heading = float(param.findtext("wpml:aircraftHeading", default="nan", namespaces=ns))
+            elif func == "gimbalRotate" and param is not None and \
+                    param.findtext("wpml:gimbalPitchRotateEnable", namespaces=ns) == "1":
+                b.pitch = float(param.findtext("wpml:gimbalPitchRotateAngle", default="nan", namespaces=ns))
+            elif func == "takePhoto":
+                b.photo()
+    return b.build()
