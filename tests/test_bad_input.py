@@ -161,7 +161,25 @@ ROWS = {
     "EGM96 heights without a height datum": (lambda t: ["export", _long_route(t, 3), "--format", "wpml", "--crs",
                                                         "EPSG:25832", "--drone", "m3e", "--wpml-heights", "egm96"],
                                              ["EGM96 heights need", "datum"]),
+    "point cloud with no obstacle points": (lambda t: ["plan", L, *PLAN, "--obstacle-points", _ground_only_las(t),
+                                                       "-o", t / "r.json"],
+                                            ["ground.las", "has no points of every class but ground and noise"]),
+    "bad --point-classes": (lambda t: ["plan", L, *PLAN, "--obstacle-points", _ground_only_las(t), "--point-classes",
+                                       "trees", "-o", t / "r.json"], ["LAS class numbers", "trees"]),
 }
+
+
+def _ground_only_las(tmp_path):
+    """A LAS file whose 100 points are all ground (class 2)."""
+    import laspy
+    import numpy as np
+    las = laspy.LasData(laspy.LasHeader(point_format=0, version="1.2"))
+    xyz = np.random.default_rng(0).uniform(0, 50, (100, 3))
+    las.x, las.y, las.z = xyz.T
+    las.classification = np.full(100, 2, np.uint8)
+    path = tmp_path / "ground.las"
+    las.write(path)
+    return path
 
 
 def _long_route(tmp_path, n: int = 120):

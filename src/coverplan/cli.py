@@ -44,14 +44,22 @@ def _add_scene_args(p, targets_positional: bool):
                    help="projected CRS of mesh coordinates that carry none (for geographic exports)")
     p.add_argument("--geo-origin", nargs=3, type=float, default=None, metavar=("LAT", "LON", "H"),
                    help="or: the geodetic position of the mesh frame's origin (x east, y north, z up)")
+    p.add_argument("--obstacle-points", nargs="+", default=[], metavar="CLOUD",
+                   help="LAS/LAZ/PLY point clouds (trees, wires, ...) in the meshes' coordinates, as obstacles")
+    p.add_argument("--points-resolution", type=float, default=0.5, metavar="M",
+                   help="voxel size the point clouds are turned into obstacles at (default 0.5)")
+    p.add_argument("--point-classes", default=None, metavar="C,C,...",
+                   help="LAS classes to keep, e.g. 3,4,5,14 (default: all but ground 2 and noise 7, 18)")
 
 
 def _scene(args):
+    from .pointcloud import parse_classes
     from .scene import load_scene
     return load_scene(args.targets, args.obstacles, units=args.units, ground=args.ground,
                       target_names=args.target_names, up_axis=args.up_axis, building=args.building,
                       lod=args.lod, context_radius=args.context_radius, crs=args.crs,
-                      geodetic_origin=args.geo_origin)
+                      geodetic_origin=args.geo_origin, obstacle_points=args.obstacle_points,
+                      points_resolution=args.points_resolution, point_classes=parse_classes(args.point_classes))
 
 
 def _camera(args) -> Camera:

@@ -133,8 +133,14 @@ def load_scene(targets: str | Path | MeshSource | Sequence[str | Path | MeshSour
                target_names: Sequence[str] | None = None,
                up_axis: str | None = None, building: str | None = None,
                lod: int | None = None, context_radius: float | None = None,
-               crs: str | None = None, geodetic_origin: Sequence[float] | None = None) -> Scene:
+               crs: str | None = None, geodetic_origin: Sequence[float] | None = None,
+               obstacle_points: Iterable[str | Path] = (), points_resolution: float = 0.5,
+               point_classes: Sequence[int] | None = None) -> Scene:
     """Read target and obstacle files into a Scene in metres.
+
+    ``obstacle_points``: LAS/LAZ/PLY point clouds in the same coordinates as the meshes; their
+    occupied voxels of ``points_resolution`` metres (LAS classes ``point_classes``, default
+    all but ground and noise) become obstacles (pointcloud.py).
 
     ``target_names`` picks, inside multi-object target files (GLB, OBJ), the objects that are
     targets; the file's other objects become obstacles. For CityGML / CityJSON, ``building``
@@ -202,6 +208,11 @@ def load_scene(targets: str | Path | MeshSource | Sequence[str | Path | MeshSour
                              f"{named[0] if named else f'{crs_unit:g} m'}; drop --units")
     if factor != 1.0 and crs_unit is not None and units is None:
         notes.append(f"coordinates scaled by {factor:g}: the unit of {crs or user_crs}")
+    for path in obstacle_points:
+        from .pointcloud import point_obstacle
+        mesh, note = point_obstacle(path, points_resolution / factor, point_classes)  # voxels in metres
+        notes.append(note)
+        parts.append(MeshPart(f"points '{Path(path).name}'", "obstacle", mesh, str(path)))
     for part in parts:
         part.mesh.apply_scale(factor)
     if geodetic_origin is not None and crs:
