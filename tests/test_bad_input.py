@@ -164,6 +164,10 @@ ROWS = {
     "point cloud with no obstacle points": (lambda t: ["plan", L, *PLAN, "--obstacle-points", _ground_only_las(t),
                                                        "-o", t / "r.json"],
                                             ["ground.las", "has no points of every class but ground and noise"]),
+    "footprints without a height": (lambda t: ["plan", file_with(t, "f.geojson", json.dumps(
+        {"type": "FeatureCollection", "features": [{"type": "Feature", "properties": {}, "geometry": {
+            "type": "Polygon", "coordinates": [[[9.18, 48.77], [9.1801, 48.77], [9.1801, 48.7701], [9.18, 48.77]]]}}]})),
+        *PLAN, "-o", t / "r.json"], ["f.geojson holds footprints", "--height-attribute NAME or --height M"]),
     "bad --point-classes": (lambda t: ["plan", L, *PLAN, "--obstacle-points", _ground_only_las(t), "--point-classes",
                                        "trees", "-o", t / "r.json"], ["LAS class numbers", "trees"]),
 }

@@ -44,6 +44,12 @@ def _add_scene_args(p, targets_positional: bool):
                    help="projected CRS of mesh coordinates that carry none (for geographic exports)")
     p.add_argument("--geo-origin", nargs=3, type=float, default=None, metavar=("LAT", "LON", "H"),
                    help="or: the geodetic position of the mesh frame's origin (x east, y north, z up)")
+    p.add_argument("--height-attribute", default=None, metavar="NAME",
+                   help="footprints (GeoJSON, GeoPackage, Shapefile): the attribute with each building's height in m")
+    p.add_argument("--height", type=float, default=None, metavar="M",
+                   help="footprints: the height of those without the attribute (or of all)")
+    p.add_argument("--roof-attribute", default=None, metavar="NAME",
+                   help="footprints: ridge height above the eaves in m, for a gable roof (default flat)")
     p.add_argument("--obstacle-points", nargs="+", default=[], metavar="CLOUD",
                    help="LAS/LAZ/PLY point clouds (trees, wires, ...) in the meshes' coordinates, as obstacles")
     p.add_argument("--points-resolution", type=float, default=0.5, metavar="M",
@@ -59,7 +65,8 @@ def _scene(args):
                       target_names=args.target_names, up_axis=args.up_axis, building=args.building,
                       lod=args.lod, context_radius=args.context_radius, crs=args.crs,
                       geodetic_origin=args.geo_origin, obstacle_points=args.obstacle_points,
-                      points_resolution=args.points_resolution, point_classes=parse_classes(args.point_classes))
+                      points_resolution=args.points_resolution, point_classes=parse_classes(args.point_classes),
+                      height_attribute=args.height_attribute, height=args.height, roof_attribute=args.roof_attribute)
 
 
 def _camera(args) -> Camera:

@@ -135,12 +135,15 @@ def load_scene(targets: str | Path | MeshSource | Sequence[str | Path | MeshSour
                lod: int | None = None, context_radius: float | None = None,
                crs: str | None = None, geodetic_origin: Sequence[float] | None = None,
                obstacle_points: Iterable[str | Path] = (), points_resolution: float = 0.5,
-               point_classes: Sequence[int] | None = None) -> Scene:
+               point_classes: Sequence[int] | None = None, height_attribute: str | None = None,
+               height: float | None = None, roof_attribute: str | None = None) -> Scene:
     """Read target and obstacle files into a Scene in metres.
 
     ``obstacle_points``: LAS/LAZ/PLY point clouds in the same coordinates as the meshes; their
     occupied voxels of ``points_resolution`` metres (LAS classes ``point_classes``, default
-    all but ground and noise) become obstacles (pointcloud.py).
+    all but ground and noise) become obstacles (pointcloud.py). Footprint files (GeoJSON,
+    GeoPackage, Shapefile) are extruded to ``height_attribute`` (or ``height``) metres, with a
+    gable of ``roof_attribute`` metres (io/footprints.py).
 
     ``target_names`` picks, inside multi-object target files (GLB, OBJ), the objects that are
     targets; the file's other objects become obstacles. For CityGML / CityJSON, ``building``
@@ -163,7 +166,8 @@ def load_scene(targets: str | Path | MeshSource | Sequence[str | Path | MeshSour
         raise ParameterError("give at least one target mesh")
     if units is not None and units not in UNITS:
         raise ParameterError(f"unknown units {units!r}; use one of {', '.join(UNITS)}")
-    options = {"up_axis": up_axis, "building": building, "lod": lod, "context_radius": context_radius}
+    options = {"up_axis": up_axis, "building": building, "lod": lod, "context_radius": context_radius,
+               "height_attribute": height_attribute, "height": height, "roof_attribute": roof_attribute}
     parts: list[MeshPart] = []
     notes: list[str] = []
     crs = vertical = None

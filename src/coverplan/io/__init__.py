@@ -230,4 +230,4 @@ def write_atomic_bytes(path, data: bytes) -> Path:
 
 def _load_plugins() -> None:
     # Importing the modules registers their readers and writers.
-    from . import citygml, cityjson, csv_waypoints, geojson, kml, litchi, meshes, qgc, wpml  # noqa: F401
+    from . import citygml, cityjson, csv_waypoints, footprints, geojson, kml, litchi, meshes, qgc, wpml  # noqa: F401
