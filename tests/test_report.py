@@ -106,3 +106,22 @@ def test_cli_report_and_verbose_timings(tmp_path, capsys):
     captured = capsys.readouterr()
     assert code == 0 and captured.out == "" and captured.err == ""
     assert (tmp_path / "b.html").exists() and (tmp_path / "b_overview.png").exists()
+
+
+def test_pictures_frame_the_target_and_its_flight_not_the_tile():
+    """A house with a neighbour 300 m off (a city tile's far corner): the overview, the slices
+    and the report's first view hold the house and every waypoint, and stop well short of it."""
+    from conftest import box
+
+    from coverplan import get_camera
+    from coverplan.report.frame import focus_bounds
+    from coverplan.report.html import report_data
+    from coverplan.scene import scene_from_meshes
+    scene = scene_from_meshes([box(0, 0, 0, 10, 8, 6)], [box(300, 300, 0, 320, 320, 12)])
+    route = plan(scene, get_camera("phantom4pro"), gsd=0.004, security=3.0, lp_time_limit=0)
+    lo, hi = focus_bounds(route, scene)
+    assert np.all(lo <= route.positions.min(axis=0)) and np.all(hi >= route.positions.max(axis=0))
+    assert np.all(lo[:2] <= 0) and np.all(hi[:2] >= [10, 8])
+    assert np.all(hi[:2] < 100)  # the far neighbour is outside the frame
+    data = report_data(route, scene, evaluate(route, scene))
+    assert np.linalg.norm(np.array(data["centre"][:2]) - [5, 4]) < 20 and data["radius"] < 100

@@ -11,6 +11,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import LineCollection, PolyCollection  # noqa: E402
 
+from .frame import focus_bounds  # noqa: E402
+
 LEG_COLOURS = {"initial": "#2b6cb0", "coverage": "#dd6b20", "final": "#805ad5"}
 ROLE_COLOURS = {"target": "#a0aec0", "obstacle": "#c53030"}
 
@@ -44,6 +46,7 @@ def _path(ax, route, axes: tuple[int, int], mask=None):
 
 def overview(route, scene, path) -> Path:
     fig, (top, side) = plt.subplots(1, 2, figsize=(13, 5.8), gridspec_kw={"width_ratios": [1, 1.3]})
+    lo, hi = focus_bounds(route, scene)
     for ax, axes, title, labels in ((top, (0, 1), "top view", ("x (east) m", "y (north) m")),
                                     (side, (0, 2), "side view (from the south)", ("x (east) m", "z m"))):
         _projected_meshes(ax, scene, axes)
@@ -52,7 +55,8 @@ def overview(route, scene, path) -> Path:
         ax.set_xlabel(labels[0])
         ax.set_ylabel(labels[1])
         ax.set_aspect("equal")
-        ax.autoscale_view()
+        ax.set_xlim(lo[axes[0]], hi[axes[0]])
+        ax.set_ylim(lo[axes[1]], hi[axes[1]])
     handles = [plt.Line2D([], [], color=c, label=f"{k} path") for k, c in LEG_COLOURS.items()]
     handles += [plt.Line2D([], [], marker="o", ls="", color="#1a202c", label="shot"),
                 plt.Line2D([], [], marker="*", ls="", color="#38a169", markersize=10, label="start")]
@@ -78,9 +82,7 @@ def slices(route, scene, path, max_levels: int = 6) -> Path:
     cols = min(3, len(levels))
     rows = int(np.ceil(len(levels) / cols))
     fig, axs = plt.subplots(rows, cols, figsize=(4.6 * cols, 4.4 * rows), squeeze=False)
-    lo, hi = scene.bounds()
-    lo = np.minimum(lo, route.positions.min(axis=0))
-    hi = np.maximum(hi, route.positions.max(axis=0))
+    lo, hi = focus_bounds(route, scene)
     for ax, level in zip(axs.ravel(), levels):
         for part in scene.parts:  # everything the band cuts: sections at its bottom, middle and top
             for zc in (level - band / 2 + 1e-3, level, level + band / 2 - 1e-3):

@@ -52,9 +52,8 @@ def report_data(route, scene, evaluation, simulation=None) -> dict:
     gsd = np.where(np.isfinite(best), route.camera.gsd_at(best), -1.0)
     status = np.where(evaluation.covered | ~evaluation.reachable, 0, 1)
     status = np.where(evaluation.reachable, status, 2).astype(np.uint8)
-    lo, hi = scene.bounds()
-    lo = np.minimum(lo, route.positions.min(axis=0))
-    hi = np.maximum(hi, route.positions.max(axis=0))
+    from .frame import focus_bounds
+    lo, hi = focus_bounds(route, scene)  # the initial view: the target and its flight, not the tile
     meshes = []
     for part in scene.parts:
         v, f = display_mesh(part.mesh)
