@@ -98,7 +98,7 @@ def _flight_model(args):
     drone = _drone(args)
     speed = None if args.speed is None else check_positive("--speed", args.speed)
     model = drone.flight_model(speed) if drone is not None else FlightModel(cruise_speed=speed or 5.0)
-    if args.shot_seconds is not None:
+    if getattr(args, "shot_seconds", None) is not None:  # export has no photos to time
         from dataclasses import replace
         if not args.shot_seconds >= 0:
             raise ParameterError(f"--shot-seconds must be >= 0, got {args.shot_seconds}")
@@ -650,7 +650,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--drone", default=None, metavar="NAME", help="for WPML: the drone (default: the route's)")
     _add_export_args(p)
     p.add_argument("--speed", type=float, default=None, metavar="M_PER_S")
-    p.add_argument("--shot-seconds", type=float, default=None, help=argparse.SUPPRESS)
     p.set_defaults(func=cmd_export)
     return parser
 

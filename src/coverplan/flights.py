@@ -21,6 +21,7 @@ from .errors import PlanningError
 from .flighttime import FlightModel, leg_seconds
 from .orientation import heading_pitch
 from .pathing import shortcut
+from .route import polyline_length
 from .tour import solve_tour
 
 MAX_ATTEMPTS = 6
@@ -76,7 +77,7 @@ def flight_table(route, model: FlightModel, limit_min: float | None = None) -> l
                                      float(p[0, 2] - ground))
         minutes = parts["total_s"] / 60.0
         rows.append({"flight": k, "minutes": minutes, "shots": int(route.shot[idx].sum()),
-                     "waypoints": int(len(idx)), "path_m": float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()),
+                     "waypoints": int(len(idx)), "path_m": polyline_length(p),
                      "limit_share_pct": 100.0 * minutes / limit_min if limit_min else None,
                      **{k2: v for k2, v in parts.items() if k2 != "total_s"}})
     return rows
@@ -177,8 +178,8 @@ def split_flights(fg, order, closure, fly, model: FlightModel, stops: Stops, max
         runs = min(candidates, key=lambda c: c[0])[1]
         flights, worst = [], 0.0
         for run in runs:
-            as_cut = fly(np.concatenate([[0], run]))
             sub = np.concatenate([[0], run])
+            as_cut = fly(sub)
             reordered = fly(sub[solve_tour(closure[np.ix_(sub, sub)])])
             times = [waypoint_times(model, w, stops)["total_s"] for w in (as_cut, reordered)]
             pick = int(np.argmin(times))

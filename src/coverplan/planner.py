@@ -21,7 +21,7 @@ from .pathing import (build_flight_graph, closure_hops, lattice_spacing, leg, sh
 from .progress import Progress
 from .reconstructability import MatchRule, connect_shots
 from .reachability import ViewLimits, reachability
-from .route import Route
+from .route import Route, polyline_length
 from .repair import MAX_ROUNDS, TARGET_PCT, CoverProblem, GapCloser
 from .selection import select_views
 from .surface import default_spacing, sample_surface
@@ -288,7 +288,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     with progress.stage("legs"):
         flights = [_fly(fg, order, pred, direct, scene, limits, margin)]
     single_s = waypoint_times(model, flights[0], stops)["total_s"]
-    single_path = float(np.linalg.norm(np.diff([p for p, _ in flights[0]], axis=0), axis=1).sum())
+    single_path = polyline_length([p for p, _ in flights[0]])
     if max_flight_min is not None and single_s > 60.0 * max_flight_min:
         with progress.stage("battery flights"):
             flights = split_flights(fg, order, closure, lambda o: _fly(fg, o, pred, direct, scene, limits, margin),

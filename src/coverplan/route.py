@@ -151,13 +151,8 @@ class Route:
         path = Path(path)
         if not path.exists():
             raise RouteFormatError(path, "no such file")
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except UnicodeDecodeError:
-            raise RouteFormatError(path, "is not UTF-8 text") from None
-        except json.JSONDecodeError as exc:
-            raise RouteFormatError(path, f"is not valid JSON ({exc.msg} at line {exc.lineno})") from None
-        return cls.from_dict(data, path)
+        from .io import read_json
+        return cls.from_dict(read_json(path, RouteFormatError), path)
 
     @classmethod
     def from_dict(cls, data, path="route") -> "Route":

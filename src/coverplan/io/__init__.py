@@ -136,6 +136,18 @@ def read_city_model(path):
     return reader(path)
 
 
+def read_json(path, error=InputFileError):
+    """The JSON value in a UTF-8 file; ``error`` (an InputFileError class) names the file and
+    says what is wrong with it."""
+    import json
+    try:
+        return json.loads(Path(path).read_text(encoding="utf-8"))
+    except UnicodeDecodeError:
+        raise error(path, "is not UTF-8 text") from None
+    except json.JSONDecodeError as exc:
+        raise error(path, f"is not valid JSON ({exc.msg} at line {exc.lineno})") from None
+
+
 def open_maybe_gzip(path, mode: str = "rb"):
     """Open a file, decompressing it when its name ends in .gz."""
     import gzip

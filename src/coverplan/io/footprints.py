@@ -11,13 +11,12 @@ through pyogrio (``pip install 'coverplan[footprints]'``).
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputFileError, ParameterError
-from . import MeshSource, register_reader
+from . import MeshSource, read_json, register_reader
 from .city import CityModel, CityObject, parse_crs, triangulate_rings
 
 EXTENSIONS = ("geojson", "gpkg", "shp")
@@ -137,12 +136,7 @@ def _read(path: Path):
     """(shapely geometries, ids, attribute dicts, CRS string or None)."""
     import shapely
     if path.suffix.lower() == ".geojson":
-        try:
-            data = json.loads(path.read_text(encoding="utf-8"))
-        except UnicodeDecodeError:
-            raise InputFileError(path, "is not UTF-8 text") from None
-        except json.JSONDecodeError as exc:
-            raise InputFileError(path, f"is not valid JSON ({exc.msg} at line {exc.lineno})") from None
+        data = read_json(path)
         features = data.get("features") if isinstance(data, dict) and data.get("type") == "FeatureCollection" \
             else [data] if isinstance(data, dict) and data.get("type") == "Feature" else None
         if features is None:

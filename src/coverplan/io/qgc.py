@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import register_mission_reader, register_writer, write_atomic
+from . import read_json, register_mission_reader, register_writer, write_atomic
 from .flight import geo_flight
 
 NAV_WAYPOINT, NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF = 16, 20, 22
@@ -160,10 +160,7 @@ def read_plan(path):
     """A QGroundControl ``.plan`` mission (simple items only)."""
     from ..errors import InputFileError
 
-    try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise InputFileError(path, f"is not valid JSON ({exc.msg} at line {exc.lineno})") from None
+    data = read_json(path)
     mission = data.get("mission") if isinstance(data, dict) else None
     if not isinstance(mission, dict) or data.get("fileType") != "Plan" or not isinstance(mission.get("items"), list):
         raise InputFileError(path, "is not a QGroundControl plan (no fileType 'Plan' with mission items)")
