@@ -170,7 +170,33 @@ ROWS = {
         *PLAN, "-o", t / "r.json"], ["f.geojson holds footprints", "--height-attribute NAME or --height M"]),
     "bad --point-classes": (lambda t: ["plan", L, *PLAN, "--obstacle-points", _ground_only_las(t), "--point-classes",
                                        "trees", "-o", t / "r.json"], ["LAS class numbers", "trees"]),
+    "--terrain with --ground": (lambda t: ["plan", L, *PLAN, "--terrain", _dtm(t), "--ground", "0", "-o", t / "r.json"],
+                                ["either --terrain or --ground"]),
+    "terrain that is not a raster": (lambda t: ["plan", L, *PLAN, "--terrain", file_with(t, "dtm.tif", "no raster"),
+                                                "-o", t / "r.json"], ["dtm.tif", "is not a raster"]),
+    "terrain that misses the site": (lambda t: ["plan", L, *PLAN, "--terrain", _dtm(t, west=5000.0), "-o", t / "r.json"],
+                                     ["dtm.tif", "does not reach the scene"]),
+    "georeferenced terrain, models without CRS": (lambda t: ["plan", L, *PLAN, "--terrain", _dtm(t, crs="EPSG:25832"),
+                                                             "-o", t / "r.json"], ["is in EPSG:25832", "--crs"]),
+    "route planned over terrain, evaluated without": (lambda t: ["evaluate", _terrain_route(t), "--target", L],
+                                                      ["planned over the terrain dtm.tif", "--terrain"]),
 }
+
+
+def _dtm(tmp_path, west: float = -50.0, crs=None):
+    """A flat 100 x 100 m GeoTIFF at z 0 whose west edge is at ``west``."""
+    import numpy as np
+    import rasterio
+    from rasterio.transform import from_origin
+    path = tmp_path / "dtm.tif"
+    with rasterio.open(path, "w", driver="GTiff", height=50, width=50, count=1, dtype="float32",
+                       transform=from_origin(west, 100.0, 2.0, 2.0), crs=crs) as f:
+        f.write(np.zeros((50, 50), np.float32), 1)
+    return path
+
+
+def _terrain_route(tmp_path):
+    return route_file(tmp_path, params={"gsd_m": 0.004, "security_m": 3.0, "terrain": "dtm.tif"})
 
 
 def _ground_only_las(tmp_path):

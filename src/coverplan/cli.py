@@ -31,6 +31,9 @@ def _add_scene_args(p, targets_positional: bool):
                    help="units of the mesh files (default: the CRS's unit, else m)")
     p.add_argument("--ground", type=float, default=None, metavar="Z",
                    help="ground height in metres (default: lowest point of the target)")
+    p.add_argument("--terrain", default=None, metavar="DTM",
+                   help="ground heights as a raster (GeoTIFF, any CRS; heights in the models' height system): "
+                        "the minimum altitude follows it (needs coverplan[terrain])")
     p.add_argument("--target-names", nargs="+", default=None, metavar="NAME",
                    help="in multi-object target files, the objects that are targets (others are obstacles)")
     p.add_argument("--up-axis", choices=["y", "z"], default=None,
@@ -66,7 +69,8 @@ def _scene(args):
                       lod=args.lod, context_radius=args.context_radius, crs=args.crs,
                       geodetic_origin=args.geo_origin, obstacle_points=args.obstacle_points,
                       points_resolution=args.points_resolution, point_classes=parse_classes(args.point_classes),
-                      height_attribute=args.height_attribute, height=args.height, roof_attribute=args.roof_attribute)
+                      height_attribute=args.height_attribute, height=args.height, roof_attribute=args.roof_attribute,
+                      terrain=args.terrain)
 
 
 def _camera(args) -> Camera:

@@ -11,13 +11,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .reachability import ViewLimits, reachability
+from .errors import ParameterError
+from .reachability import ViewLimits, reachability, scene_limits
 from .route import Route
 from .surface import CLASS_NAMES, SurfaceSamples, check_spacing, sample_surface
 from .reconstructability import MatchRule, graph_summary, shot_links
 from .visibility import has_pair_between, imaging_pairs, view_rays, widest_pair_angle
 
 ORIENTATION_TOLERANCE_DEG = 0.5
+ALTITUDE_TOLERANCE_M = 1e-3  # route files keep 0.1 mm; a floor that follows terrain is rarely a round number
 
 
 RULES = ("strict", "thesis")
@@ -30,6 +32,9 @@ def view_limits(route: Route, scene, rule: str = "strict") -> ViewLimits:
     min_alt = route.params.get("min_altitude_m", route.security)
     lo, hi = route.params.get("gimbal_pitch_range_deg", (-90.0, 90.0))
     incidence = float(route.param("max_incidence_deg")) if rule == "strict" else 89.9
+    if scene.terrain is not None:
+        return scene_limits(scene, security=route.security, d_opt=route.d_opt, max_incidence_deg=incidence,
+                            min_altitude=float(min_alt), pitch_range_deg=(lo, hi), vfov_deg=route.camera.vfov_deg)
     return ViewLimits(security=route.security, d_opt=route.d_opt,
                       max_incidence_deg=incidence,
                       min_z=float(ground) + float(min_alt), pitch_range_deg=(float(lo), float(hi)),
@@ -80,6 +85,9 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
     """
     if rule not in RULES:
         raise ValueError(f"rule must be one of {RULES}")
+    if route.params.get("terrain") and scene.terrain is None:
+        raise ParameterError(f"the route was planned over the terrain {route.params['terrain']}: give it with "
+                             "--terrain, its altitudes are judged against it")
     limits = view_limits(route, scene, rule)
     if samples is None:
         samples = sample_surface(scene, check_spacing(scene, spacing), seed=seed)
@@ -117,7 +125,7 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
     # A shot the route flies safely proves the samples it images (under DESIGN.md's rule) reachable.
     last = len(seg_d) - 1
     near = np.minimum(seg_d[np.clip(shots - 1, 0, last)], seg_d[np.clip(shots, 0, last)])
-    shot_safe = (near >= route.security) & ~inside[shots] & (positions[shots, 2] >= limits.min_z - 1e-9)
+    shot_safe = (near >= route.security) & ~inside[shots] & limits.above_floor(positions[shots])
     witness = shot_safe[cam] & (rng <= route.d_opt) & (rule == "strict")
     # Probing is the slow part: only samples no safe shot images need it.
     reach = reachability(scene, samples, limits, known=np.bincount(pt[witness], minlength=n) > 0)
@@ -170,7 +178,10 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
     security = route.security
     tol = 1e-6 * max(1.0, security)
     unsafe = np.flatnonzero(ev.segment_clearance < security - tol)
-    low = np.flatnonzero(route.positions[:, 2] < limits.min_z - tol)
+    p = route.positions
+    low = np.flatnonzero(~limits.above_floor(p, ALTITUDE_TOLERANCE_M))
+    lowest = lowest_above_ground(p, limits)
+    low_segments = np.flatnonzero(lowest < limits.min_altitude - ALTITUDE_TOLERANCE_M)
     orient = route.orientation_errors_deg()
     seg_k = int(np.argmin(ev.segment_clearance)) if len(ev.segment_clearance) else None
     p_outliers = (ev.views >= 2) & (ev.widest_deg < float(route.param("min_triangulation_deg")))
@@ -230,13 +241,29 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
         "unsafe_segment_count": int(len(unsafe)),
         "waypoints_inside_meshes": int(ev.waypoint_inside.sum()),
         "altitude_violations": int(len(low)),
+        "segments_below_min_altitude": [{"segment": int(k), "lowest_above_ground_m": float(lowest[k])}
+                                        for k in low_segments[:50]],
+        "segments_below_min_altitude_count": int(len(low_segments)),
+        "lowest_above_ground_m": float(lowest.min()) if len(lowest) else float(p[0, 2] - limits.ground_at(p[:1, :2])[0]),
+        "min_altitude_m": limits.min_altitude,
         "min_altitude_z_m": limits.min_z,
+        "terrain": scene.terrain.source if scene.terrain is not None else None,
         "orientation_mismatches": int((orient > ORIENTATION_TOLERANCE_DEG).sum()),
         "returns_to_start": bool(np.linalg.norm(route.positions[-1] - route.positions[0]) < 1e-6),
-        "safe": bool(len(unsafe) == 0 and len(low) == 0 and not ev.waypoint_inside.any()),
+        "safe": bool(len(unsafe) == 0 and len(low) == 0 and len(low_segments) == 0 and not ev.waypoint_inside.any()),
         "security_m": security,
         "d_opt_m": route.d_opt,
     }
+
+
+def lowest_above_ground(points, limits: ViewLimits) -> np.ndarray:
+    """Per segment of the polyline, its lowest height above the ground (flat or terrain)."""
+    p = np.asarray(points, dtype=float).reshape(-1, 3)
+    if len(p) < 2:
+        return np.zeros(0)
+    if limits.terrain is not None:
+        return limits.terrain.lowest_above(p[:-1], p[1:])
+    return np.minimum(p[:-1, 2], p[1:, 2]) - limits.ground_z
 
 
 def _fmt(v, unit="") -> str:
@@ -257,7 +284,11 @@ def format_metrics(m: dict) -> str:
                           + (f", nearest {m['min_clearance_mesh']})" if m.get("min_clearance_mesh") else ")")),
         ("unsafe segments", str(m["unsafe_segment_count"])),
         ("waypoints inside meshes", str(m["waypoints_inside_meshes"])),
-        ("altitude violations", str(m["altitude_violations"])),
+        ("altitude violations", f"{m['altitude_violations']} waypoints, "
+                                f"{m.get('segments_below_min_altitude_count', 0)} segments (lowest "
+                                f"{_fmt(m.get('lowest_above_ground_m'), ' m')} above "
+                                f"{'the terrain' if m.get('terrain') else 'flat ground'}, minimum "
+                                f"{_fmt(m.get('min_altitude_m'), ' m')})"),
         ("orientation mismatches", str(m["orientation_mismatches"])),
         ("coverage of reachable", f"{m['coverage_pct']:.2f} % (checked every {m['sample_spacing_m']:.2f} m)"),
         ("reachable surface", f"{m['reachable_area_m2']:,.1f} of {m['surface_area_m2']:,.1f} m2"),

@@ -69,7 +69,7 @@ def waypoint_times(model: FlightModel, waypoints, stops: Stops) -> dict:
 def flight_table(route, model: FlightModel, limit_min: float | None = None) -> list[dict]:
     """Per flight of ``route``: minutes by ``model`` (and their parts), shots, path length, and
     the share of the flight limit it uses."""
-    ground = float(route.params.get("ground_z_m", route.positions[:, 2].min()))
+    ground = route.takeoff_z
     rows = []
     for k, idx in enumerate(route.flight_rows(), start=1):
         p = route.positions[idx]
@@ -94,7 +94,7 @@ def _legs_of(waypoints) -> list[np.ndarray]:
     return legs
 
 
-def _start_legs(fg, n_special: int, clearance, radius: float) -> list[np.ndarray]:
+def _start_legs(fg, n_special: int, clearance, radius: float, floor=None) -> list[np.ndarray]:
     """The safe polyline from the start to every shot along one shortest-path tree."""
     source = fg.special(0)
     _dist, pred = dijkstra(fg.graph, directed=True, indices=source, return_predecessors=True)
@@ -112,7 +112,7 @@ def _start_legs(fg, n_special: int, clearance, radius: float) -> list[np.ndarray
         column = hops[:, k]
         nodes = column[: int(np.argmax(column == source)) + 1][::-1]
         pts = fg.points[nodes]
-        out.append(pts[shortcut(pts, clearance, radius)])
+        out.append(pts[shortcut(pts, clearance, radius, floor=floor)])
     return out
 
 
@@ -143,13 +143,13 @@ def _best_split(sequence, start_s, between_s, photo_s, ground_s, limit_s):
 
 
 def split_flights(fg, order, closure, fly, model: FlightModel, stops: Stops, max_seconds: float,
-                  clearance, radius: float) -> list[list]:
+                  clearance, radius: float, floor=None) -> list[list]:
     """Flights (each a flown waypoint list from the start back to it) covering every shot of
     the tour ``order`` once, each within ``max_seconds`` by ``model``."""
     order = np.asarray(order)
     n_special = len(closure)
     single = fly(order)
-    start_legs = _start_legs(fg, n_special, clearance, radius)
+    start_legs = _start_legs(fg, n_special, clearance, radius, floor)
     start_s = np.zeros(n_special)
     for i, pts in enumerate(start_legs, start=1):
         start_s[i] = leg_seconds(model, pts, np.nan, stops.heading[i], 0.0, stops.pitch[i])

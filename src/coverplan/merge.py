@@ -81,7 +81,7 @@ def _rebuilt(scene: Scene, parts, notes) -> Scene:
     """The same scene (frame, ground, georeference) with other parts."""
     return Scene(parts, ground_z=scene.ground_z, crs=scene.crs, origin=scene.origin.copy(), notes=notes,
                  vertical_crs=scene.vertical_crs, geodetic_origin=scene.geodetic_origin,
-                 crs_unit_m=scene.crs_unit_m)
+                 crs_unit_m=scene.crs_unit_m, terrain=scene.terrain)
 
 
 __all__ = ["merge_into_target", "unite_overlapping_targets", "mesh_distance"]

@@ -50,9 +50,10 @@ def node_costs(points, scene_distance, target_distance, d_opt: float) -> tuple[n
     return (k - scene_distance) + np.abs(target_distance - d_opt), max(k, 1e-9)
 
 
-def _lattice(clearance, lo, hi, spacing: float, radius: float, far: float, hole=None):
+def _lattice(clearance, limits, lo, hi, spacing: float, radius: float, far: float, hole=None):
     """Safe nodes of a regular lattice over the box [lo, hi] (none strictly inside the box
-    ``hole``), their distance bounds, and the 26-neighbour edges whose segments are safe."""
+    ``hole``), their distance bounds, and the 26-neighbour edges whose segments are safe
+    (clear of the meshes, above the minimum altitude)."""
     shape = np.floor((hi - lo) / spacing).astype(int) + 1
     grid = np.stack(np.meshgrid(*[np.arange(s) for s in shape], indexing="ij"), axis=-1).reshape(-1, 3)
     nodes = lo + grid * spacing
@@ -62,8 +63,8 @@ def _lattice(clearance, lo, hi, spacing: float, radius: float, far: float, hole=
     upper, _owner = clearance.kd_distance(nodes, far)
     upper = np.minimum(upper, far)
     lower = np.maximum(upper - clearance.cover_radius, 0.0)
-    ok = lower >= radius
-    unsure = np.flatnonzero(~ok & (upper >= radius))
+    ok = (lower >= radius) & limits.above_floor(nodes)
+    unsure = np.flatnonzero(~ok & (upper >= radius) & limits.above_floor(nodes))
     if len(unsure):
         ok[unsure] = clearance.points_clear(nodes[unsure], radius, check_inside=False)
     # Nodes inside buildings stay in components the start cannot reach; no inside test needed.
@@ -83,6 +84,7 @@ def _lattice(clearance, lo, hi, spacing: float, radius: float, far: float, hole=
     rows, cols = np.concatenate(rows), np.concatenate(cols)
     if len(rows):
         safe = clearance.segments_clear(nodes[rows], nodes[cols], radius, lower[rows], lower[cols], exact=False)
+        safe[safe] = limits.segments_above_floor(nodes[rows[safe]], nodes[cols[safe]])
         rows, cols = rows[safe], cols[safe]
     return nodes, lower, upper, rows, cols
 
@@ -103,9 +105,9 @@ def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float
     pad = limits.d_opt + 2 * spacing
     lo = np.minimum(lo - pad, specials[1:].min(axis=0, initial=np.inf) - spacing)
     hi = np.maximum(hi + pad, specials[1:].max(axis=0, initial=-np.inf) + spacing)
-    lo[2] = limits.min_z
-    hi[2] = max(hi[2], limits.min_z + spacing)
-    nodes, lower, upper, rows, cols = _lattice(clearance, lo, hi, spacing, radius, far)
+    lo[2] = limits.lowest_floor(lo, hi)
+    hi[2] = max(hi[2], lo[2] + spacing)
+    nodes, lower, upper, rows, cols = _lattice(clearance, limits, lo, hi, spacing, radius, far)
     fine_lo, fine_hi = lo, lo + (np.floor((hi - lo) / spacing)) * spacing  # the outermost fine nodes
     n_fine = len(nodes)
     coarse = None
@@ -116,9 +118,9 @@ def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float
         big = float(np.prod(c_hi - c_lo + 2 * spacing))
         step = max(3.0 * spacing, (big / max_coarse_nodes) ** (1.0 / 3.0))
         c_lo = c_lo - step
-        c_lo[2] = limits.min_z
         c_hi = c_hi + step
-        coarse = _lattice(clearance, c_lo, c_hi, step, radius, far, hole=(fine_lo, fine_hi))
+        c_lo[2] = limits.lowest_floor(c_lo, c_hi)
+        coarse = _lattice(clearance, limits, c_lo, c_hi, step, radius, far, hole=(fine_lo, fine_hi))
         c_nodes, c_lower, c_upper, c_rows, c_cols = coarse
         # Join the two lattices: each coarse node near the fine box to its nearest fine nodes.
         if len(c_nodes) and n_fine:
@@ -129,6 +131,7 @@ def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float
             a = np.repeat(rim, 8).reshape(-1, 8)[live]
             b = j[live]
             safe = clearance.segments_clear(c_nodes[a], nodes[b], radius, c_lower[a], lower[b], exact=False)
+            safe[safe] = limits.segments_above_floor(c_nodes[a[safe]], nodes[b[safe]])
             link_r, link_c = a[safe] + n_fine, b[safe]
         else:
             link_r = link_c = np.zeros(0, dtype=np.int64)
@@ -164,6 +167,7 @@ def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float
     if extra_r:
         er, ec = np.concatenate(extra_r), np.concatenate(extra_c)
         safe = clearance.segments_clear(points[er], points[ec], radius)  # exact: shots sit near the limit
+        safe[safe] = limits.segments_above_floor(points[er[safe]], points[ec[safe]])
         rows = np.concatenate([rows, er[safe]])
         cols = np.concatenate([cols, ec[safe]])
 
@@ -228,8 +232,9 @@ def leg(fg: FlightGraph, a: int, b: int, cost: float) -> np.ndarray:
     return np.array(path[::-1])
 
 
-def shortcut(points, clearance, radius: float, batch: int = 8) -> np.ndarray:
-    """Indices of a subsequence of ``points`` whose straight segments all stay safe.
+def shortcut(points, clearance, radius: float, batch: int = 8, floor=None) -> np.ndarray:
+    """Indices of a subsequence of ``points`` whose straight segments all stay safe (and,
+    given ``floor`` (starts, ends) -> bool, above the minimum altitude).
 
     From each kept point, jump to the farthest later point in view: the farthest is tried
     first (most legs are then one segment), then the next ``batch`` farthest, and so on.
@@ -241,8 +246,10 @@ def shortcut(points, clearance, radius: float, batch: int = 8) -> np.ndarray:
         nxt = i + 1  # consecutive path points are joined by a checked edge already
         for hi in range(n - 1, i + 1, -batch):
             j = np.arange(hi, max(hi - batch, i + 1), -1)
-            ok = clearance.segments_clear(np.repeat(points[i:i + 1], len(j), axis=0), points[j], radius,
-                                          exact=False)
+            a = np.repeat(points[i:i + 1], len(j), axis=0)
+            ok = clearance.segments_clear(a, points[j], radius, exact=False)
+            if floor is not None:
+                ok &= floor(a, points[j])
             if ok.any():
                 nxt = int(j[np.argmax(ok)])
                 break

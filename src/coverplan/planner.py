@@ -20,7 +20,7 @@ from .pathing import (build_flight_graph, closure_hops, lattice_spacing, leg, sh
                       shot_distances)
 from .progress import Progress
 from .reconstructability import MatchRule, connect_shots
-from .reachability import ViewLimits, reachability
+from .reachability import ViewLimits, reachability, scene_limits
 from .route import Route, polyline_length
 from .repair import MAX_ROUNDS, TARGET_PCT, CoverProblem, GapCloser
 from .selection import select_views
@@ -110,8 +110,8 @@ def default_start(scene, limits: ViewLimits, margin: float) -> np.ndarray:
     for extra in np.arange(1.0, 20.0, 1.0) * max(limits.d_opt, 1.0):
         angles = np.radians(np.arange(135.0, 135.0 + 360.0, 15.0))
         r = np.linalg.norm(hi[:2] - lo[:2]) / 2.0 + extra
-        pts = np.column_stack([centre[0] + r * np.cos(angles), centre[1] + r * np.sin(angles),
-                               np.full(len(angles), limits.min_z)])
+        xy = np.column_stack([centre[0] + r * np.cos(angles), centre[1] + r * np.sin(angles)])
+        pts = np.column_stack([xy, limits.floor_at(xy)])
         ok = clearance.points_clear(pts, limits.security + margin)
         if ok.any():
             return pts[np.argmax(ok)]
@@ -132,10 +132,12 @@ def check_start(scene, start, limits: ViewLimits, notes: list) -> np.ndarray:
         raise ParameterError(
             f"start point is {away / 1000:,.0f} km from the target; give it in the same coordinates as the input "
             f"models (the target's centre is at {', '.join(f'{v:.1f}' for v in centre)})")
-    if start[2] < limits.min_z:
-        notes.append(f"start raised from z={start[2]:.2f} to the minimum altitude z={limits.min_z:.2f}")
+    floor = float(limits.floor_at(start[None, :2])[0])
+    if start[2] < floor:
+        notes.append(f"start raised from z={start[2]:.2f} to the minimum altitude z={floor:.2f}"
+                     + (" above the terrain" if limits.terrain is not None else ""))
         start = start.copy()
-        start[2] = limits.min_z
+        start[2] = floor
     inside = scene.rays.inside(start[None])[0]
     if inside >= 0:
         raise PlanningError(f"start point {start.round(2).tolist()} is inside {scene.describe(int(inside))}")
@@ -193,8 +195,8 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
         max_flight_min = drone.usable_flight_min
     if max_flight_min is not None:
         max_flight_min = check_positive("max flight minutes", max_flight_min)
-    limits = ViewLimits(security, d_opt, float(max_incidence_deg), scene.ground_z + min_alt, (lo_p, hi_p),
-                        camera.vfov_deg, scene.ground_z)
+    limits = scene_limits(scene, security=security, d_opt=d_opt, max_incidence_deg=max_incidence_deg,
+                          min_altitude=min_alt, pitch_range_deg=(lo_p, hi_p), vfov_deg=camera.vfov_deg)
     margin = safety_margin(security)
     notes: list[str] = []
     spacing = default_spacing(scene, d_opt) if spacing is None else check_positive("spacing", spacing)
@@ -284,7 +286,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     with progress.stage("tour"):
         order = solve_tour(closure)
     stops = Stops(np.concatenate([[0.0], shots.heading_deg]), np.concatenate([[0.0], shots.pitch_deg]),
-                  float(start[2] - scene.ground_z))
+                  float(start[2] - limits.ground_at(start[None, :2])[0]))
     with progress.stage("legs"):
         flights = [_fly(fg, order, pred, direct, scene, limits, margin)]
     single_s = waypoint_times(model, flights[0], stops)["total_s"]
@@ -293,7 +295,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
         with progress.stage("battery flights"):
             flights = split_flights(fg, order, closure, lambda o: _fly(fg, o, pred, direct, scene, limits, margin),
                                     model, stops, 60.0 * max_flight_min, scene.clearance_model(limits.security),
-                                    limits.security + margin)
+                                    limits.security + margin, floor=limits.segments_above_floor)
     route = _route(flights, shots, camera, scene, limits, gsd, security, min_views,
                    min_triangulation_deg, max_incidence_deg, min_alt, spacing, uncovered)
     if drone is not None:
@@ -376,7 +378,7 @@ def _fly(fg, order, pred, direct, scene, limits, margin) -> list[tuple[np.ndarra
         for x, y in zip(hops[:-1], hops[1:]):
             nodes.extend(leg(fg, fg.special(x), fg.special(y), direct[x, y])[1:])
         pts = fg.points[np.array(nodes)]
-        keep = shortcut(pts, clearance, radius)
+        keep = shortcut(pts, clearance, radius, floor=limits.segments_above_floor)
         for k in keep[1:-1]:
             out.append((pts[k], -1))
         out.append((pts[-1], v))
@@ -407,8 +409,12 @@ def _route(flights, shots, camera, scene, limits, gsd, security, min_views,
               "min_triangulation_deg": min_tri, "max_incidence_deg": max_inc,
               "min_altitude_m": min_alt, "ground_z_m": scene.ground_z,
               "gimbal_pitch_range_deg": list(limits.pitch_range_deg), "sample_spacing_m": spacing}
+    ground = None
+    if scene.terrain is not None:
+        ground = scene.terrain.height(pos[:, :2])
+        params["terrain"] = scene.terrain.source
     return Route(pos, is_shot, heading, pitch, legs, camera, params, frame=scene.frame, uncovered=uncovered,
-                 flight=flight)
+                 flight=flight, ground_z=ground)
 
 
 def _gimbal_range(given, drone) -> tuple[float, float]:
@@ -430,10 +436,12 @@ def _final_check(route: Route, scene, limits: ViewLimits) -> None:
     clearance = scene.clearance_model(limits.security)
     p = route.positions
     ok = clearance.segments_clear(p[:-1], p[1:], limits.security) if len(p) > 1 else np.array([True])
-    low = p[:, 2] < limits.min_z - 1e-9
+    low = ~limits.above_floor(p)
+    if len(p) > 1:
+        low[1:] |= ~limits.segments_above_floor(p[:-1], p[1:])
     if not ok.all() or low.any():
         raise RuntimeError(f"internal error: planned route breaks the security distance on "
-                           f"{int((~ok).sum())} segments / altitude at {int(low.sum())} waypoints")
+                           f"{int((~ok).sum())} segments / altitude at {int(low.sum())} waypoints or segments")
 
 
 def _outline(scene) -> list:

@@ -28,12 +28,14 @@ _F32 = np.float32
 class RayCaster:
     """First hits, segment occlusion and inside tests against a list of meshes."""
 
-    def __init__(self, meshes, epsilon: float = 1e-4):
+    def __init__(self, meshes, epsilon: float = 1e-4, sheets=()):
+        """``sheets`` (the terrain) block rays and report hits with indices after the meshes',
+        but are open surfaces: inside tests ignore them."""
         self._scene = rtcore_scene.EmbreeScene()
         self._keep = []
         self.n_meshes = len(meshes)
         self.epsilon = float(epsilon)
-        for mesh in meshes:
+        for mesh in list(meshes) + list(sheets):
             tm = TriangleMesh(scene=self._scene,
                               vertices=np.ascontiguousarray(mesh.vertices, dtype=_F32),
                               indices=np.ascontiguousarray(mesh.faces, dtype=np.int32))
@@ -85,7 +87,8 @@ class RayCaster:
             dist, geom, _face = self.first_hit(origins[live], d[live])
             hit = geom >= 0
             live, dist, geom = live[hit], dist[hit], geom[hit]
-            np.add.at(counts, (live, geom), 1)
+            solid = geom < self.n_meshes
+            np.add.at(counts, (live[solid], geom[solid]), 1)
             origins[live] = origins[live] + d[live] * (dist + self.epsilon)[:, None]
         return counts
 

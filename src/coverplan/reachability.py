@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .terrain import Terrain
+
 OK, LOW, GIMBAL, OCCLUDED, UNSAFE = 0, 1, 2, 3, 4
 GROUND = -2  # culprit index meaning the ground plane
 
@@ -48,6 +50,40 @@ class ViewLimits:
     pitch_range_deg: tuple[float, float]
     vfov_deg: float
     ground_z: float = -np.inf
+    terrain: Terrain | None = None  # with it, min_z is the lowest floor and the floor follows the ground
+
+    @property
+    def min_altitude(self) -> float:
+        return self.min_z - self.ground_z
+
+    def ground_at(self, xy) -> np.ndarray:
+        """Ground height under each (x, y)."""
+        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+        return self.terrain.height(xy) if self.terrain is not None else np.full(len(xy), self.ground_z)
+
+    def floor_at(self, xy) -> np.ndarray:
+        """The lowest height the drone may fly at over each (x, y)."""
+        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+        return self.terrain.height(xy) + self.min_altitude if self.terrain is not None else np.full(len(xy), self.min_z)
+
+    def above_floor(self, points, tol: float = 1e-9) -> np.ndarray:
+        points = np.asarray(points, dtype=float).reshape(-1, 3)
+        return points[:, 2] >= self.floor_at(points[:, :2]) - tol
+
+    def segments_above_floor(self, starts, ends, tol: float = 1e-6) -> np.ndarray:
+        """Whether every point of each segment keeps the minimum altitude (over flat ground the
+        ends settle it; over terrain every crossing of the ground's grid is checked)."""
+        starts = np.asarray(starts, dtype=float).reshape(-1, 3)
+        ends = np.asarray(ends, dtype=float).reshape(-1, 3)
+        if self.terrain is None:
+            return (starts[:, 2] >= self.min_z - tol) & (ends[:, 2] >= self.min_z - tol)
+        return self.terrain.segments_above(starts, ends, self.min_altitude, tol)
+
+    def lowest_floor(self, lo_xy, hi_xy) -> float:
+        """The lowest the drone may fly anywhere over the box [lo_xy, hi_xy]."""
+        if self.terrain is None:
+            return self.min_z
+        return self.terrain.lowest_in(np.asarray(lo_xy)[:2], np.asarray(hi_xy)[:2]) + self.min_altitude
 
     def elevation_ok(self, rays) -> np.ndarray:
         """Whether the gimbal can frame a point seen along ``rays`` (point -> camera)."""
@@ -79,11 +115,11 @@ def test_probes(scene, points, normals, owner, positions, rays, limits: ViewLimi
     # The gimbal first: a probe the gimbal cannot aim from is GIMBAL at any altitude, so LOW
     # means "the gimbal could, the altitude floor forbids it" and the two reasons stay apart.
     status[~limits.elevation_ok(rays)] = GIMBAL
-    status[(status == OK) & (positions[:, 2] < limits.min_z)] = LOW
+    status[(status == OK) & ~limits.above_floor(positions, tol=0.0)] = LOW
     start = points[owner] + normals[owner] * scene.epsilon * 4
     blocked = scene.rays.segments_blocked(start, positions)
     status[blocked] = OCCLUDED
-    underground = ~blocked & (positions[:, 2] < limits.ground_z)  # the ground is opaque too
+    underground = ~blocked & (positions[:, 2] < limits.ground_at(positions[:, :2]))  # the ground is opaque too
     status[underground] = OCCLUDED
     culprit[underground] = GROUND
     live = np.flatnonzero(status == OK)
@@ -98,6 +134,19 @@ def test_probes(scene, points, normals, owner, positions, rays, limits: ViewLimi
         _d, mesh, _f = scene.rays.first_hit(start[occ], positions[occ] - start[occ], max_distance=length)
         culprit[occ] = mesh
     return status, culprit
+
+
+def scene_limits(scene, *, security: float, d_opt: float, max_incidence_deg: float, min_altitude: float,
+                pitch_range_deg, vfov_deg: float) -> ViewLimits:
+    """The limits over this scene's ground: flat at ``scene.ground_z``, or its terrain (then
+    ``min_z`` is the lowest floor near the target and the floor follows the ground)."""
+    ground = float(scene.ground_z)
+    if scene.terrain is not None:
+        lo, hi = scene.bounds("target")
+        reach = d_opt + security
+        ground = scene.terrain.lowest_in(lo[:2] - reach, hi[:2] + reach)
+    return ViewLimits(float(security), float(d_opt), float(max_incidence_deg), ground + float(min_altitude),
+                      tuple(float(v) for v in pitch_range_deg), float(vfov_deg), ground, scene.terrain)
 
 
 @dataclass
@@ -150,7 +199,7 @@ def explain(scene, status, culprit) -> str:
             return "a mesh"
         values, counts = np.unique(c, return_counts=True)
         top = int(values[np.argmax(counts)])
-        return "the ground" if top == GROUND else scene.describe(top)
+        return scene.describe(len(scene.parts)) if top == GROUND else scene.describe(top)
     if (status == UNSAFE).any():
         return f"no viewpoint within d_opt keeps the security distance from {most_common(status == UNSAFE)}"
     low, gimbal = (status == LOW).any(), (status == GIMBAL).any()

@@ -48,6 +48,7 @@ class Route:
     metrics: dict = field(default_factory=dict)
     extra: dict = field(default_factory=dict)
     flight: np.ndarray | None = None  # (n,) 1, 2, ...: the battery flight of each waypoint
+    ground_z: np.ndarray | None = None  # (n,) the terrain's height under each waypoint (planned over terrain)
 
     def __post_init__(self):
         self.positions = np.asarray(self.positions, dtype=float).reshape(-1, 3)
@@ -60,6 +61,8 @@ class Route:
         self.leg = list(self.leg)
         self.flight = np.ones(len(self.positions), dtype=int) if self.flight is None else \
             np.asarray(self.flight, dtype=int).reshape(-1)
+        if self.ground_z is not None:
+            self.ground_z = np.asarray(self.ground_z, dtype=float).reshape(-1)
 
     def __len__(self) -> int:
         return len(self.positions)
@@ -81,6 +84,18 @@ class Route:
     def n_flights(self) -> int:
         return int(self.flight.max()) if len(self.flight) else 0
 
+    @property
+    def takeoff_z(self) -> float:
+        """Height of the ground the drone takes off from (under the first waypoint): the
+        reference of heights "relative to take-off"."""
+        if self.ground_z is not None:
+            return float(self.ground_z[0])
+        return float(self.params.get("ground_z_m", self.positions[:, 2].min()))
+
+    def above_ground(self) -> np.ndarray:
+        """Each waypoint's height above the ground under it (the flat ground without terrain)."""
+        return self.positions[:, 2] - (self.ground_z if self.ground_z is not None else self.takeoff_z)
+
     def flight_rows(self) -> list[np.ndarray]:
         """Waypoint rows of each battery flight, in order (each from the start point back to it)."""
         return [np.flatnonzero(self.flight == k) for k in range(1, self.n_flights + 1)]
@@ -90,7 +105,8 @@ class Route:
         rows = np.flatnonzero(self.flight == k)
         return Route(self.positions[rows], self.shot[rows], self.heading_deg[rows], self.pitch_deg[rows],
                      [self.leg[r] for r in rows], self.camera, dict(self.params), view_dir=self.view_dir[rows],
-                     frame=self.frame, metrics={}, extra=dict(self.extra))
+                     frame=self.frame, metrics={}, extra=dict(self.extra),
+                     ground_z=None if self.ground_z is None else self.ground_z[rows])
 
     def flight_minutes(self, speed: float, shot_seconds: float) -> float:
         """The simple estimate: the path at ``speed`` m/s plus ``shot_seconds`` per photo."""
@@ -124,6 +140,7 @@ class Route:
                 "gimbal_pitch_deg": round(float(self.pitch_deg[k]), 4),
                 "leg": self.leg[k],
                 **({"flight": int(self.flight[k])} if several else {}),
+                **({"ground_z": round(float(self.ground_z[k]), 4)} if self.ground_z is not None else {}),
             })
         d = {
             "format": FORMAT, "version": VERSION, "units": "m",
@@ -175,7 +192,7 @@ class Route:
         waypoints = _require(data, "waypoints", list, path)
         if not waypoints:
             raise RouteFormatError(path, "has no waypoints")
-        pos, shot, vdir, head, pitch, leg, flight = [], [], [], [], [], [], []
+        pos, shot, vdir, head, pitch, leg, flight, ground = [], [], [], [], [], [], [], []
         for k, wp in enumerate(waypoints):
             if not isinstance(wp, dict):
                 raise RouteFormatError(path, f"waypoint {k} is not an object")
@@ -209,6 +226,12 @@ class Route:
                 raise RouteFormatError(path, f"waypoint {k} flight {fl!r} must be a whole number >= 1 that stays or "
                                              "goes up by one from the waypoint before")
             flight.append(fl)
+            g = wp.get("ground_z")
+            if (g is not None and not _finite(g)) or (k > 0 and (g is None) != (len(ground) == 0)):
+                raise RouteFormatError(path, f"waypoint {k} ground_z must be a finite number, given for every "
+                                             "waypoint or for none")
+            if g is not None:
+                ground.append(float(g))
         if flight[0] != 1:
             raise RouteFormatError(path, "the first waypoint must be in flight 1")
         frame = data.get("frame") or {"crs": None, "origin": [0.0, 0.0, 0.0]}
@@ -224,7 +247,8 @@ class Route:
         vdir /= np.linalg.norm(vdir, axis=1, keepdims=True)
         return cls(np.array(pos), np.array(shot), np.array(head), np.array(pitch), leg, camera, dict(params),
                    view_dir=vdir, frame=frame, uncovered=uncovered, metrics=data.get("metrics") or {},
-                   extra=data.get("planner") or {}, flight=np.array(flight))
+                   extra=data.get("planner") or {}, flight=np.array(flight),
+                   ground_z=np.array(ground) if ground else None)
 
     def evaluate(self, scene, **options):
         """The evaluator's verdict on this route in ``scene`` (see coverplan.evaluate)."""

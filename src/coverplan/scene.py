@@ -14,6 +14,7 @@ from .errors import InputFileError, ParameterError
 from .geo import check_crs
 from .io import MeshSource, read_file
 from .prepare import prepare_mesh
+from .terrain import Terrain
 
 UNITS = {"m": 1.0, "cm": 0.01, "mm": 0.001, "ft": 0.3048, "in": 0.0254}
 # Coordinates beyond this (m) are shifted to a local origin: Embree and manifold3d work
@@ -43,6 +44,7 @@ class Scene:
     vertical_crs: str | None = None
     geodetic_origin: list | None = None  # [lat, lon, h]: local x, y, z are east, north, up there
     crs_unit_m: float = 1.0  # metres per unit of the CRS (source coordinates were scaled by it)
+    terrain: Terrain | None = None  # the ground's heights; None: flat at ground_z
     _clearance: dict = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self):
@@ -86,7 +88,7 @@ class Scene:
     @cached_property
     def rays(self):
         from .raycast import RayCaster
-        return RayCaster(self.meshes, epsilon=self.epsilon)
+        return RayCaster(self.meshes, epsilon=self.epsilon, sheets=[self.terrain.mesh] if self.terrain else [])
 
     def clearance_model(self, security: float):
         """Clearance queries tuned for one security distance (cached per distance)."""
@@ -97,7 +99,14 @@ class Scene:
             self._clearance[key] = ClearanceModel(self.meshes, rays=self.rays, cover_edge=edge)
         return self._clearance[key]
 
+    def ground_at(self, xy) -> np.ndarray:
+        """Ground height under each (x, y): the terrain's, or the flat ``ground_z``."""
+        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+        return self.terrain.height(xy) if self.terrain is not None else np.full(len(xy), float(self.ground_z))
+
     def describe(self, index: int) -> str:
+        if index >= len(self.parts):  # the terrain, cast after the meshes
+            return f"the ground ({self.terrain.source})" if self.terrain else "the ground"
         part = self.parts[index]
         return f"{part.role} '{part.name}'"
 
@@ -136,7 +145,8 @@ def load_scene(targets: str | Path | MeshSource | Sequence[str | Path | MeshSour
                crs: str | None = None, geodetic_origin: Sequence[float] | None = None,
                obstacle_points: Iterable[str | Path] = (), points_resolution: float = 0.5,
                point_classes: Sequence[int] | None = None, height_attribute: str | None = None,
-               height: float | None = None, roof_attribute: str | None = None) -> Scene:
+               height: float | None = None, roof_attribute: str | None = None,
+               terrain: str | Path | None = None) -> Scene:
     """Read target and obstacle files into a Scene in metres.
 
     ``obstacle_points``: LAS/LAZ/PLY point clouds in the same coordinates as the meshes; their
@@ -153,6 +163,10 @@ def load_scene(targets: str | Path | MeshSource | Sequence[str | Path | MeshSour
     ``crs`` names the projected CRS of mesh coordinates that carry none; ``geodetic_origin``
     [lat, lon, h] places a local (east, north, up) mesh frame on Earth instead. A target may
     also be a MeshSource already read (``coverplan batch`` reads a city file once).
+
+    ``terrain`` is a DTM raster (GeoTIFF) in any CRS pyproj knows, heights in the models'
+    height system; without it, a city model's relief, roads and land use make the terrain,
+    and without those the ground is flat at ``ground`` (default: the target's lowest point).
     """
     if crs is not None and geodetic_origin is not None:
         raise ParameterError("give either a CRS or a geodetic origin, not both")
@@ -175,10 +189,18 @@ def load_scene(targets: str | Path | MeshSource | Sequence[str | Path | MeshSour
     wanted = set(target_names or ())
     found: set[str] = set()
     available: set[str] = set()
+    if terrain is not None and ground is not None:
+        raise ParameterError("give either --terrain or --ground: the terrain is the ground")
+    ground_tri = []  # a city model's ground objects, in source coordinates
+    lifted = set()  # names of parts to stand on the terrain (extruded footprints)
     for path in targets:
         src = path if isinstance(path, MeshSource) else read_file(path, **options)
         path = src.path or path
         notes += src.notes
+        if src.ground is not None:
+            ground_tri.append(src.ground)
+        if src.stand_on_terrain:
+            lifted |= {_part_name(path, raw, len(src.meshes) > 1) for raw, _m in src.meshes}
         if src.crs and crs and src.crs != crs:
             raise ParameterError(f"{path} is in {src.crs} but {file_of_crs} is in {crs}; convert one of them")
         if src.crs and not crs:
@@ -199,7 +221,11 @@ def load_scene(targets: str | Path | MeshSource | Sequence[str | Path | MeshSour
     for path in obstacles:
         src = read_file(path, **options)
         notes += src.notes
+        if src.ground is not None:
+            ground_tri.append(src.ground)
         many = len(src.meshes) > 1
+        if src.stand_on_terrain:
+            lifted |= {_part_name(path, raw, many) for raw, _m in src.meshes}
         parts += [MeshPart(_part_name(path, raw, many), "obstacle", mesh, str(path)) for raw, mesh in src.meshes]
     if user_crs and crs and user_crs != crs:
         raise ParameterError(f"--crs {user_crs} contradicts {file_of_crs}, which says {crs}")
@@ -225,9 +251,60 @@ def load_scene(targets: str | Path | MeshSource | Sequence[str | Path | MeshSour
     scene = build_scene(parts, ground=ground_m, crs=crs or user_crs, vertical_crs=vertical, notes=notes)
     scene.geodetic_origin = geodetic_origin
     scene.crs_unit_m = factor if (crs or user_crs) else 1.0
-    scene.notes += unit_warnings(scene, units or "m")
+    scene.terrain, terrain_notes = _load_terrain(scene, terrain, ground_tri if terrain is None else [], factor)
+    if scene.terrain is not None:
+        terrain_notes += _stand_on_terrain(scene, lifted)
+        # the flat stand-in, for pictures: the lowest ground under the target
+        lo, hi = scene.bounds("target")
+        scene.ground_z = scene.terrain.lowest_in(lo[:2], hi[:2])
+    scene.notes += terrain_notes + unit_warnings(scene, units or "m")
     from .merge import unite_overlapping_targets
     return unite_overlapping_targets(scene)
+
+
+CITY_TERRAIN_STEP_M = 1.0  # grid of a city model's ground surfaces
+
+
+def _stand_on_terrain(scene: Scene, names: set) -> list[str]:
+    """Lift meshes extruded from z 0 so each stands on the lowest ground along its outline
+    (a footprint's height counts from its lowest ground contact)."""
+    moved = 0
+    for part in scene.parts:
+        if part.name not in names:
+            continue
+        v = part.mesh.vertices
+        base = v[:, 2].min()
+        outline = v[np.abs(v[:, 2] - base) < 1e-6]
+        part.mesh.apply_translation([0.0, 0.0, float(scene.terrain.height(outline[:, :2]).min()) - base])
+        moved += 1
+    return [f"{moved} footprint buildings stand on the terrain (walls from the lowest ground along each outline)"] \
+        if moved else []
+
+
+def _load_terrain(scene: Scene, path, ground_tri: list, factor: float) -> tuple[Terrain | None, list[str]]:
+    """The scene's terrain from a DTM file or a city model's ground triangles (or None)."""
+    from .terrain import TERRAIN_MARGIN_M, read_dtm
+    if path is None and not ground_tri:
+        return None, []
+    lo, hi = scene.bounds()
+    if path is not None:
+        if scene.geodetic_origin is not None:
+            raise ParameterError("--terrain needs models in a projected CRS (--crs), not a geodetic origin")
+        terrain, notes = read_dtm(path, scene.crs, scene.origin, (lo[:2] + scene.origin[:2]) / factor,
+                                  (hi[:2] + scene.origin[:2]) / factor, factor)
+    else:
+        tri = np.vstack(ground_tri) * factor - scene.origin
+        have_lo, have_hi = tri.reshape(-1, 3)[:, :2].min(axis=0), tri.reshape(-1, 3)[:, :2].max(axis=0)
+        box_lo = np.maximum(lo[:2] - TERRAIN_MARGIN_M, have_lo)
+        box_hi = np.minimum(hi[:2] + TERRAIN_MARGIN_M, have_hi)
+        if (box_hi - box_lo <= 0).any():
+            return None, ["the city model's ground objects do not reach the target; the ground is flat"]
+        terrain = Terrain.from_triangles(tri, box_lo, box_hi, CITY_TERRAIN_STEP_M, "the city model's ground")
+        notes = []
+    ny, nx = terrain.shape
+    notes.append(f"terrain from {terrain.source}: {nx} x {ny} heights every {terrain.dx:.2g} m, "
+                 f"ground {terrain.heights.min() + scene.origin[2]:.1f}..{terrain.heights.max() + scene.origin[2]:.1f} m")
+    return terrain, notes
 
 
 def unit_warnings(scene: Scene, units: str) -> list[str]:

@@ -92,7 +92,7 @@ def sample_surface(scene, spacing: float, seed: int = 0, oversample: float = 6.0
     for index in scene.target_indices:
         mesh = scene.parts[index].mesh
         on_ground = ((mesh.face_normals[:, 2] < -0.7)
-                     & (mesh.triangles_center[:, 2] <= scene.ground_z + tol))
+                     & (mesh.triangles_center[:, 2] <= scene.ground_at(mesh.triangles_center[:, :2]) + tol))
         left_out["ground"] += float(mesh.area_faces[on_ground].sum())
         keep = ~on_ground
         tri.append(mesh.triangles[keep])
@@ -113,7 +113,8 @@ def sample_surface(scene, spacing: float, seed: int = 0, oversample: float = 6.0
     dense = t[:, 0] + u[:, None] * (t[:, 1] - t[:, 0]) + v[:, None] * (t[:, 2] - t[:, 0])
     dense_area = total / n_dense
 
-    below = dense[:, 2] < scene.ground_z - tol
+    # Terrain is an opaque surface: whatever lies under it is hidden, however little.
+    below = dense[:, 2] < scene.ground_at(dense[:, :2]) - (0.0 if scene.terrain is not None else tol)
     left_out["below_ground"] = float(below.sum() * dense_area)
     dense, face = dense[~below], face[~below]
     if len(dense) == 0:

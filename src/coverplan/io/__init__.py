@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
+import numpy as np
 import trimesh
 
 from ..errors import InputFileError
@@ -28,6 +29,8 @@ class MeshSource:
     notes: list[str] = field(default_factory=list)
     vertical_crs: str | None = None  # heights' datum, when the file names one
     path: Path | None = None  # the file it came from, when handed on already read
+    ground: np.ndarray | None = None  # (n, 3, 3) triangles of the ground (a city model's relief, roads...)
+    stand_on_terrain: bool = False  # meshes built from z 0 (extruded footprints): lift each onto the terrain
 
 
 Reader = Callable[..., MeshSource]

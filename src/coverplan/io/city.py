@@ -16,6 +16,9 @@ from . import MeshSource
 
 DEFAULT_CONTEXT_RADIUS = 150.0
 BUILDING_KINDS = ("Building", "Bridge", "Tunnel")
+# City objects that are the ground itself: they become the terrain, not obstacles.
+GROUND_KINDS = ("TINRelief", "ReliefFeature", "Road", "Railway", "Square", "TransportSquare", "Track",
+                "Waterway", "LandUse", "WaterBody")
 _EPSG = re.compile(r"EPSG(?:/|:)+(?:[0-9.]+[:/])?(\d{4,6})", re.IGNORECASE)
 
 
@@ -156,6 +159,20 @@ class CityModel:
             self._bounds[lod] = np.asarray(boxes, dtype=float).reshape(-1, 4)
         return self._bounds[lod]
 
+    def ground_near(self, lo, hi, radius: float, lod: int | None) -> list[np.ndarray]:
+        """Triangles of the ground objects (any LoD: a relief at LoD 0 still has heights)
+        within ``radius`` of the xy box [lo, hi]."""
+        out = []
+        for o in self.objects:
+            if o.kind not in GROUND_KINDS or not o.by_lod:
+                continue
+            tri = self.triangles(o, lod)
+            pts = tri.reshape(-1, 3)[:, :2]
+            gap = np.maximum(np.maximum(pts.min(axis=0) - hi, lo - pts.max(axis=0)), 0.0)
+            if np.linalg.norm(gap) <= radius:
+                out.append(tri)
+        return out
+
     def footprint(self, obj: CityObject, lod: int | None = None):
         """The object's outline seen from above (a shapely polygon), in file coordinates."""
         import shapely
@@ -203,13 +220,17 @@ class CityModel:
         gap = np.maximum(np.maximum(boxes[:, :2] - hi, lo - boxes[:, 2:]), 0.0)
         near = np.linalg.norm(gap, axis=1) <= radius
         parts = [(target.id, tri)]
-        parts += [(o.id, self.triangles(o, lod)) for o, keep in zip(with_geometry, near) if keep and o is not target]
+        nearby = [o for o, keep in zip(with_geometry, near) if keep and o is not target]
+        parts += [(o.id, self.triangles(o, lod)) for o in nearby if o.kind not in GROUND_KINDS]
+        ground = self.ground_near(lo, hi, radius, lod)
         name = Path(self.path).name
         notes = [f"{name}: target {target.kind} {target.id}, {len(parts) - 1} city objects within "
                  f"{radius:g} m as obstacles"]
+        if ground:
+            notes.append(f"{name}: terrain from {len(ground)} ground objects (relief, roads, land use)")
         if self.skipped:
             notes.append(f"{name}: skipped {self.skipped} polygons that could not be triangulated")
-        return Neighbourhood(parts, notes, self.crs, Path(self.path))
+        return Neighbourhood(parts, notes, self.crs, Path(self.path), np.vstack(ground) if ground else None)
 
 
 @dataclass
@@ -221,17 +242,18 @@ class Neighbourhood:
     notes: list[str]
     crs: tuple[str | None, str | None]
     path: Path
+    ground: np.ndarray | None = None  # (n, 3, 3) triangles of the ground objects around it
 
     def source(self) -> MeshSource:
         meshes = [(oid, _mesh(tri)) for oid, tri in self.parts]
         return MeshSource(meshes=meshes, crs=self.crs[0], target_names=[self.parts[0][0]], notes=list(self.notes),
-                          vertical_crs=self.crs[1], path=self.path)
+                          vertical_crs=self.crs[1], path=self.path, ground=self.ground)
 
     def digest(self) -> str:
         """Changes when any triangle of the target or its neighbours does."""
         import hashlib
         h = hashlib.sha256()
-        for oid, tri in self.parts:
+        for oid, tri in self.parts + ([("ground", self.ground)] if self.ground is not None else []):
             h.update(oid.encode())
             h.update(np.ascontiguousarray(tri, dtype=np.float64).tobytes())
         return h.hexdigest()[:16]

@@ -84,10 +84,25 @@ def read_citygml_model(path) -> CityModel:
                         skipped += 1
                     else:
                         city.add(level, tri)
+            if not city.by_lod and _local(obj) in RELIEF_KINDS:
+                _add_relief(city, obj, gml, path)
             objects.append(city)
     if not objects:
         raise InputFileError(path, "holds no city objects (no cityObjectMember)")
     return CityModel(path, objects, crs, skipped)
+
+
+RELIEF_KINDS = ("ReliefFeature", "TINRelief")
+
+
+def _add_relief(city: CityObject, obj, gml, path) -> None:
+    """A relief's triangles: its geometry hangs under ``tin`` / ``reliefComponent``, not under
+    ``lodN...`` properties, and its LoD is a ``lod`` element."""
+    lod_text = next((e.text for e in obj.iter() if _local(e) == "lod" and e.text and e.text.strip().isdigit()), "1")
+    for surface in obj.iter(*(f"{{{gml}}}{s}" for s in _SURFACES)):
+        tri = triangulate_rings(_rings(surface, gml, path))
+        if tri is not None:
+            city.add(int(lod_text), tri)
 
 
 def _attributes(obj) -> dict:

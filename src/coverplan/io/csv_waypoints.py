@@ -14,14 +14,14 @@ COLUMNS = ["index", "x_m", "y_m", "z_m", "altitude_above_ground_m", "heading_deg
 
 @register_writer("csv", ".csv")
 def write_csv(route, path, **_ignored) -> list[Path]:
-    ground = float(route.params.get("ground_z_m", route.positions[:, 2].min()))
     lonlat = geo.to_lonlat(route.frame, route.positions) if geo.has_georeference(route.frame) else None
     buffer = io.StringIO()
     writer = csv.writer(buffer, lineterminator="\n")
     writer.writerow(COLUMNS + (["longitude", "latitude"] if lonlat else []))
+    above_ground = route.above_ground()
     for k in range(len(route)):
         x, y, z = route.positions[k]
-        row = [k, f"{x:.4f}", f"{y:.4f}", f"{z:.4f}", f"{z - ground:.4f}", f"{route.heading_deg[k]:.3f}",
+        row = [k, f"{x:.4f}", f"{y:.4f}", f"{z:.4f}", f"{above_ground[k]:.4f}", f"{route.heading_deg[k]:.3f}",
                f"{route.pitch_deg[k]:.3f}", int(route.shot[k]), route.leg[k]]
         if lonlat:
             row += [f"{lonlat[0][k]:.9f}", f"{lonlat[1][k]:.9f}"]

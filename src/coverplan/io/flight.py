@@ -48,7 +48,7 @@ def geo_flight(route) -> GeoFlight:
     """The route's waypoints in WGS84 (raises ParameterError when it has no georeference)."""
     frame = route.frame
     lon, lat, h = geo.to_lonlat(frame, route.positions)
-    ground = float(route.params.get("ground_z_m", route.positions[:, 2].min()))
+    ground = route.takeoff_z
     alt_rel = route.positions[:, 2] - ground
     absolute = heights_are_absolute(frame)
     home_lon, home_lat, home_h = geo.to_lonlat(frame, [[route.positions[0, 0], route.positions[0, 1], ground]])

@@ -27,7 +27,9 @@ def read_footprints(path, building: str | None = None, context_radius: float | N
                     height_attribute: str | None = None, height: float | None = None,
                     roof_attribute: str | None = None, **_ignored) -> MeshSource:
     model = read_footprint_model(path, height_attribute, height, roof_attribute)
-    return model.source(building, context_radius, None)
+    src = model.source(building, context_radius, None)
+    src.stand_on_terrain = True
+    return src
 
 
 def read_footprint_model(path, height_attribute: str | None = None, height: float | None = None,

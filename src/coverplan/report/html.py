@@ -102,7 +102,10 @@ def metrics_rows(m: dict) -> list[tuple[str, str]]:
     rows = [("safe", safe),
             ("min clearance", f"{_fmt(m['min_clearance_m'])} m (security {_fmt(m['security_m'])} m)"),
             ("unsafe segments", _fmt(m["unsafe_segment_count"])),
-            ("altitude violations", _fmt(m["altitude_violations"])),
+            ("altitude violations", f"{_fmt(m['altitude_violations'])} waypoints, "
+                                    f"{_fmt(m.get('segments_below_min_altitude_count', 0))} segments"),
+            ("lowest above " + ("the terrain" if m.get("terrain") else "the ground"),
+             f"{_fmt(m.get('lowest_above_ground_m'))} m"),
             ("coverage of reachable surface", f"{m['coverage_pct']:.2f} %"),
             ("reachable / total surface", f"{m['reachable_area_m2']:,.1f} / {m['surface_area_m2']:,.1f} m²"),
             ("uncovered reachable", f"{m['uncovered_reachable_area_m2']:,.1f} m²"),
@@ -117,12 +120,13 @@ def metrics_rows(m: dict) -> list[tuple[str, str]]:
     return rows
 
 
-def road_map_rows(route, ground_z: float) -> str:
+def road_map_rows(route) -> str:
     rows = []
+    above = route.above_ground()
     for k in range(len(route)):
         x, y, z = route.positions[k]
         shot = "yes" if route.shot[k] else ""
-        rows.append(f"<tr><td>{k}</td><td>{route.flight[k]}</td><td>{x:.2f}</td><td>{y:.2f}</td><td>{z:.2f}</td><td>{z - ground_z:.2f}</td>"
+        rows.append(f"<tr><td>{k}</td><td>{route.flight[k]}</td><td>{x:.2f}</td><td>{y:.2f}</td><td>{z:.2f}</td><td>{above[k]:.2f}</td>"
                     f"<td>{route.heading_deg[k]:.1f}</td><td>{route.pitch_deg[k]:.1f}</td><td class=l>{shot}</td>"
                     f"<td class=l>{route.leg[k]}</td></tr>")
     return "\n".join(rows)
@@ -190,7 +194,6 @@ def render_html(route, scene, evaluation, title: str = "coverplan flight report"
             params.append(("stages", stages))
     if route.frame.get("crs"):
         params.append(("CRS / origin", f"{route.frame['crs']} / {route.frame['origin']}"))
-    ground = float(route.params.get("ground_z_m", scene.ground_z))
     data_json = json.dumps(data).replace("</", "<\\/")
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8">
@@ -238,7 +241,7 @@ minimum clearance {evaluation.metrics['min_clearance_m']:.2f} m
 <div class=scroll><table id="road-map"><thead><tr><th>#</th><th>flight</th><th>x</th><th>y</th><th>z</th><th>altitude</th>
 <th>heading °</th><th>gimbal °</th><th class=l>shot</th><th class=l>leg</th></tr></thead>
 <tbody>
-{road_map_rows(route, ground)}
+{road_map_rows(route)}
 </tbody></table></div></section>
 </main>
 <script type="application/json" id="report-data">{data_json}</script>

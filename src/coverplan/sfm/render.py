@@ -58,7 +58,10 @@ class PhotoCamera:
 
 
 def ground_plane(scene, reach: float) -> trimesh.Trimesh:
-    """A square at the scene's ground height reaching ``reach`` beyond every mesh."""
+    """A square at the scene's ground height reaching ``reach`` beyond every mesh; over
+    terrain, the terrain's own surface."""
+    if scene.terrain is not None:
+        return scene.terrain.mesh
     lo, hi = scene.bounds()
     x0, y0 = lo[:2] - reach
     x1, y1 = hi[:2] + reach
