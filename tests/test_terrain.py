@@ -280,3 +280,31 @@ def test_segment_check_is_exact_on_random_ground(seed, nx, ny, dx, dy, altitude)
     np.testing.assert_array_equal(ok, lowest >= altitude - 1e-6)
     clear = dense > altitude + 1e-3
     assert ok[clear].all() and not ok[dense < altitude - 1e-3].any()
+
+
+def test_exports_count_heights_from_the_ground_under_the_start(tmp_path):
+    """On a slope the take-off point is not at the ground's lowest point: QGC and Litchi heights
+    relative to take-off must start from the ground under the start, and the mission read back
+    lands where the route is."""
+    def ground(e, n):
+        return 250.0 + GRADE * (e - UTM_EAST)
+
+    dtm = write_dtm(tmp_path / "dtm.tif", ground, crs="EPSG:25832", west=UTM_EAST - HALF, north=UTM_NORTH + HALF)
+    mesh = box(-6, -4, -1.5, 6, 4, 7.5)
+    mesh.apply_translation([UTM_EAST, UTM_NORTH, 250.0])
+    mesh.export(tmp_path / "house.obj")
+    start = [UTM_EAST + 25.0, UTM_NORTH, 0.0]  # uphill: raised to 3 m above its ground (253.75 m)
+    out = tmp_path / "r.json"
+    assert main(["plan", str(tmp_path / "house.obj"), "--crs", "EPSG:25832", "--terrain", str(dtm), *ARGS,
+                 "--start", *map(str, start), "--export", "qgc", "--no-evaluate", "-o", str(out)]) == 0
+    route = Route.load(out)
+    origin = np.array(route.frame["origin"])
+    source = route.positions + origin
+    takeoff = ground(start[0], start[1])
+    assert route.takeoff_z + origin[2] == pytest.approx(takeoff, abs=1e-3)
+    assert source[0, 2] == pytest.approx(takeoff + SECURITY, abs=1e-3)
+    items = json.loads((tmp_path / "r.plan").read_text())["mission"]["items"]
+    alt = np.array([i["params"][6] for i in items if i["command"] == 16])
+    np.testing.assert_allclose(alt, source[1:, 2] - takeoff, atol=0.01)
+    # Downhill of the start the relative heights go below zero while staying 3 m above the ground.
+    assert alt.min() < 0 and (source[:, 2] - ground(source[:, 0], source[:, 1])).min() >= SECURITY - 1e-3

@@ -409,6 +409,10 @@ def plan_summary(route) -> str:
                                + (f", checked every {m['check_spacing_m']:.2f} m" if m.get("check_spacing_m") else "")),
         ("uncovered samples", f"{len(route.uncovered)}"),
         ("d_opt / standoff", f"{m['d_opt_m']:.2f} m / {m['standoff_m']:.2f} m"),
+        ("ground", f"terrain {route.params['terrain']}; minimum altitude "
+                   f"{route.params.get('min_altitude_m', route.security):g} m above it along every segment"
+                   if route.params.get("terrain") else
+                   f"flat at z {route.takeoff_z:.2f} (no terrain given: --terrain DTM.tif)"),
         ("planning time", f"{m['planning_time_s']:.2f} s"),
     ]
     ev = m.get("evaluation")

@@ -94,7 +94,9 @@ def mission_to_route(mission: Mission, scene, camera, gsd: float, security: floa
     local = geo.from_lonlat(frame, mission.lon, mission.lat, np.zeros(len(mission)))
     z = np.empty(len(mission))
     above_takeoff = mission.alt_ref == TAKEOFF
-    z[above_takeoff] = scene.ground_z + mission.alt[above_takeoff]
+    # The drone takes off from the ground under the first waypoint (the terrain's, when known).
+    takeoff = float(scene.ground_at(local[:1, :2])[0])
+    z[above_takeoff] = takeoff + mission.alt[above_takeoff]
     if (~above_takeoff).any():
         if not (frame.get("vertical_crs") or frame.get("geodetic_origin")):
             raise ParameterError(f"the {mission.source} gives heights above sea level, but the scene's "
