@@ -101,7 +101,7 @@ def read_litchi(path):
     and take photos in order, the waypoint's own heading and gimbal pitch apply otherwise.
     """
     from ..errors import InputFileError
-    from .missions import TAKEOFF, MissionBuilder
+    from .missions import GROUND, TAKEOFF, MissionBuilder
 
     path = Path(path)
     parts = _parts(path)
@@ -122,11 +122,12 @@ def read_litchi(path):
             lat, lon, alt = value("latitude"), value("longitude"), value("altitude(m)")
             if not np.isfinite([lat, lon, alt]).all():
                 raise InputFileError(part, f"line {k}: latitude, longitude and altitude(m) must be numbers")
-            above_ground |= value("altitudemode", 0.0) == 1
+            ground_mode = value("altitudemode", 0.0) == 1
+            above_ground |= ground_mode
             curved |= value("curvesize(m)", 0.0) > 0
             if value("gimbalmode", 2.0) == 2:
                 b.pitch = value("gimbalpitchangle")
-            b.waypoint(lat, lon, alt, TAKEOFF, heading=value("heading(deg)"))
+            b.waypoint(lat, lon, alt, GROUND if ground_mode else TAKEOFF, heading=value("heading(deg)"))
             for a in range(1, MAX_ACTIONS + 1):
                 kind, param = value(f"actiontype{a}", NO_ACTION), value(f"actionparam{a}", 0.0)
                 if kind == ROTATE_AIRCRAFT:
@@ -136,7 +137,8 @@ def read_litchi(path):
                 elif kind == TAKE_PHOTO:
                     b.photo()
     if above_ground:
-        b.notes.append("altitudes above ground (altitudemode 1) taken above the scene's flat ground")
+        b.notes.append("altitudes above ground (altitudemode 1) taken above the ground under each waypoint "
+                       "(the terrain's with --terrain, else the scene's flat ground)")
     if curved:
         b.notes.append("curved turns (curvesize) are flown as straight lines between waypoints")
     first = b.rows[0] if b.rows else None

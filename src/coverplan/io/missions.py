@@ -19,7 +19,7 @@ import numpy as np
 
 from ..errors import InputFileError, ParameterError
 
-TAKEOFF, AMSL = "takeoff", "amsl"
+TAKEOFF, AMSL, GROUND = "takeoff", "amsl", "ground"  # GROUND: above the ground under the waypoint
 
 
 @dataclass
@@ -29,7 +29,7 @@ class Mission:
     lat: np.ndarray
     lon: np.ndarray
     alt: np.ndarray
-    alt_ref: np.ndarray  # TAKEOFF or AMSL per waypoint
+    alt_ref: np.ndarray  # TAKEOFF, GROUND or AMSL per waypoint
     heading_true: np.ndarray
     pitch: np.ndarray
     shot: np.ndarray
@@ -97,6 +97,9 @@ def mission_to_route(mission: Mission, scene, camera, gsd: float, security: floa
     # The drone takes off from the ground under the first waypoint (the terrain's, when known).
     takeoff = float(scene.ground_at(local[:1, :2])[0])
     z[above_takeoff] = takeoff + mission.alt[above_takeoff]
+    on_ground = mission.alt_ref == GROUND
+    z[on_ground] = scene.ground_at(local[on_ground, :2]) + mission.alt[on_ground]
+    above_takeoff |= on_ground  # settled: not above sea level
     if (~above_takeoff).any():
         if not (frame.get("vertical_crs") or frame.get("geodetic_origin")):
             raise ParameterError(f"the {mission.source} gives heights above sea level, but the scene's "
