@@ -113,3 +113,25 @@ def test_bad_clouds_are_refused(site, tmp_path):
     junk.write_bytes(b"not a point cloud" * 10)
     with pytest.raises(InputFileError, match="junk.laz: cannot be read as a LAS/LAZ point cloud"):
         load_scene(house, obstacle_points=[junk])
+
+
+def test_wall_behind_a_hedge_is_reported_hidden_by_it(tmp_path):
+    """A hedge of points 1.5 m before a wall, as tall as the wall: its middle hides the wall's
+    foot from every safe viewpoint, and the reason names the hedge."""
+    house = tmp_path / "house.obj"
+    box(0, 0, 0, 10, 8, 6).export(house)
+    rng = np.random.default_rng(5)
+    xyz = np.column_stack([rng.uniform(1, 9, 60000), rng.uniform(-3.5, -1.5, 60000), rng.uniform(0, 6, 60000)])
+    cloud = write_las(tmp_path / "hedge.las", xyz, np.full(len(xyz), 4, np.uint8))
+    scene = load_scene(house, obstacle_points=[cloud])
+    route = plan(scene, get_camera("phantom4pro"), gsd=0.003, security=2.0)
+    ev = evaluate(route, scene)
+    assert ev.safe
+    hidden = [g for g in ev.metrics["unreachable"] if "occluded by obstacle points 'hedge.las'" in g["reason"]]
+    assert hidden and sum(g["area_m2"] for g in hidden) > 0.3
+    for g in hidden:  # on the south wall, behind the hedge, below its top
+        (x0, y0, z0), (x1, y1, z1) = g["bounds"]
+        assert abs(y0) < 0.05 and abs(y1) < 0.05 and 1.0 <= x0 <= x1 <= 9.0 and z1 <= 6.0
+    # Without the hedge that wall is all covered.
+    bare = evaluate(plan(load_scene(house), get_camera("phantom4pro"), gsd=0.003, security=2.0), load_scene(house))
+    assert bare.metrics["unreachable_area_m2"] < 0.05

@@ -201,7 +201,9 @@ def explain(scene, status, culprit) -> str:
         top = int(values[np.argmax(counts)])
         return scene.describe(len(scene.parts)) if top == GROUND else scene.describe(top)
     if (status == UNSAFE).any():
-        return f"no viewpoint within d_opt keeps the security distance from {most_common(status == UNSAFE)}"
+        unsafe = f"no viewpoint within d_opt keeps the security distance from {most_common(status == UNSAFE)}"
+        # Both: the blocker in front and what crowds the way around it (often the same tree).
+        return f"occluded by {most_common(status == OCCLUDED)}; {unsafe}" if (status == OCCLUDED).any() else unsafe
     low, gimbal = (status == LOW).any(), (status == GIMBAL).any()
     if low and gimbal:  # either setting may be what blocks: say both
         return "visible only from below the minimum altitude or at a gimbal pitch outside its range"

@@ -108,7 +108,7 @@ class Scene:
         if index >= len(self.parts):  # the terrain, cast after the meshes
             return f"the ground ({self.terrain.source})" if self.terrain else "the ground"
         part = self.parts[index]
-        return f"{part.role} '{part.name}'"
+        return f"{part.role} {part.name}" if "'" in part.name else f"{part.role} '{part.name}'"
 
     @property
     def frame(self) -> dict:
