@@ -81,6 +81,28 @@ def main():
     # A box with an obstacle (a shed) flush against the middle of its south wall.
     save(cuboid(C - 8, C - 5, 0, C + 8, C + 5, 12), "flush_target.obj")
     save(cuboid(C - 3, C - 8, 0, C + 3, C - 5, 4), "flush_obstacle.obj")
+    save_footprints(HERE / "footprints.geojson")
+
+
+def save_footprints(path) -> None:
+    """Four footprints drawn in metres around a street corner (Stuttgart), written in
+    longitude/latitude (RFC 7946) with an eaves height and a ridge above it."""
+    import json
+    lon0, lat0 = 9.1829, 48.7758
+    k_lon, k_lat = 111_200.0 * np.cos(np.radians(lat0)), 111_200.0
+    shapes = {
+        "house": (box(0, 0, 12, 8), 6.0, 3.0),
+        "ell": (Polygon([(18, 0), (30, 0), (30, 10), (24, 10), (24, 5), (18, 5)]), 9.0, 0.0),
+        "barn": (box(0, 16, 10, 30), 5.0, 4.0),
+        "court": (box(16, 16, 36, 34).difference(box(22, 22, 30, 28)), 7.5, 0.0),
+    }
+    features = []
+    for fid, (poly, height, ridge) in shapes.items():
+        rings = [poly.exterior] + list(poly.interiors)
+        coords = [[[round(lon0 + x / k_lon, 8), round(lat0 + y / k_lat, 8)] for x, y in ring.coords] for ring in rings]
+        features.append({"type": "Feature", "id": fid, "properties": {"height": height, "ridge": ridge},
+                         "geometry": {"type": "Polygon", "coordinates": coords}})
+    Path(path).write_text(json.dumps({"type": "FeatureCollection", "features": features}, indent=1) + "\n")
 
 
 if __name__ == "__main__":

@@ -96,3 +96,21 @@ def test_footprint_mistakes_are_named(geojson, tmp_path):
         {"type": "Feature", "properties": {"h": "tall"}, "geometry": mapping(to_lonlat(box(0, 0, 5, 5)))}]}))
     with pytest.raises(InputFileError, match="h is 'tall', not a number"):
         load_scene(bad, height_attribute="h")
+
+
+def test_bundled_footprints_plan_as_the_readme_says(tmp_path, capsys):
+    """The README's command on meshes/footprints.geojson: the gabled house is planned safe
+    around its three neighbours."""
+    from conftest import MESHES
+
+    from coverplan.route import Route
+    out = tmp_path / "house.json"
+    assert main(["plan", str(MESHES / "footprints.geojson"), "--building", "house", "--height-attribute", "height",
+                 "--roof-attribute", "ridge", "--camera", "phantom4pro", "--gsd", "0.004", "--security", "3",
+                 "-o", str(out), "--export", "kml", "--quiet"]) == 0
+    route = Route.load(out)
+    assert route.metrics["evaluation"]["safe"] and route.metrics["evaluation"]["coverage_pct"] >= 99.5
+    assert (tmp_path / "house.kml").exists()
+    scene = load_scene(MESHES / "footprints.geojson", building="house", height_attribute="height",
+                       roof_attribute="ridge")
+    assert len(scene.obstacles) == 3 and scene.bounds("target")[1, 2] == pytest.approx(9.0, abs=0.01)  # eaves 6 + ridge 3
