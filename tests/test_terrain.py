@@ -59,16 +59,29 @@ def points_along(positions, step=0.05):
 ARGS = ["--camera", "phantom4pro", "--gsd", "0.004", "--security", str(SECURITY), "--quiet"]
 
 
+def plan_site(tmp_path, ground, over_terrain: bool = True):
+    """A DTM of ``ground`` and a house standing on it, planned through the CLI with the DTM
+    (or on flat ground): (dtm, house, route file, route)."""
+    dtm = write_dtm(tmp_path / "dtm.tif", ground)
+    house = house_on(tmp_path, ground)
+    out = tmp_path / "r.json"
+    assert main(["plan", str(house), *(["--terrain", str(dtm)] if over_terrain else []), *ARGS, "-o", str(out)]) == 0
+    return dtm, house, out, Route.load(out)
+
+
+def evaluate_json(capsys, route_file, house, dtm) -> dict:
+    """``coverplan evaluate --json`` of the route against the house and the DTM."""
+    capsys.readouterr()
+    assert main(["evaluate", str(route_file), "--target", str(house), "--terrain", str(dtm), "--json"]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
 def slope(x, y):
     return GRADE * x
 
 
 def test_slope_plan_keeps_the_minimum_altitude_above_the_dtm_everywhere(tmp_path, capsys):
-    dtm = write_dtm(tmp_path / "dtm.tif", slope)
-    house = house_on(tmp_path, slope)
-    out = tmp_path / "r.json"
-    assert main(["plan", str(house), "--terrain", str(dtm), *ARGS, "-o", str(out)]) == 0
-    route = Route.load(out)
+    dtm, house, out, route = plan_site(tmp_path, slope)
     along = points_along(route.positions)
     above = along[:, 2] - slope(along[:, 0], along[:, 1])
     assert above.min() >= SECURITY - 1e-3  # min altitude = security by default
@@ -79,9 +92,7 @@ def test_slope_plan_keeps_the_minimum_altitude_above_the_dtm_everywhere(tmp_path
     np.testing.assert_allclose(route.ground_z, slope(route.positions[:, 0], 0), atol=1e-3)
     assert route.takeoff_z == pytest.approx(slope(route.positions[0, 0], 0), abs=1e-3)
     # The evaluator, given the DTM, agrees; every sample above the ground is covered.
-    capsys.readouterr()
-    assert main(["evaluate", str(out), "--target", str(house), "--terrain", str(dtm), "--json"]) == 0
-    m = json.loads(capsys.readouterr().out)
+    m = evaluate_json(capsys, out, house, dtm)
     assert m["safe"] and m["terrain"] == "dtm.tif"
     assert m["lowest_above_ground_m"] >= SECURITY - 1e-3 and m["segments_below_min_altitude_count"] == 0
     assert m["coverage_pct"] >= 99.5
@@ -93,14 +104,8 @@ def test_slope_plan_keeps_the_minimum_altitude_above_the_dtm_everywhere(tmp_path
 
 
 def test_flat_plan_flies_too_low_over_the_slope_and_the_evaluator_says_so(tmp_path, capsys):
-    dtm = write_dtm(tmp_path / "dtm.tif", slope)
-    house = house_on(tmp_path, slope)
-    out = tmp_path / "flat.json"
-    assert main(["plan", str(house), *ARGS, "-o", str(out)]) == 0  # flat ground at the lowest point
-    capsys.readouterr()
-    assert main(["evaluate", str(out), "--target", str(house), "--terrain", str(dtm), "--json"]) == 0
-    m = json.loads(capsys.readouterr().out)
-    route = Route.load(out)
+    dtm, house, out, route = plan_site(tmp_path, slope, over_terrain=False)  # flat at the lowest point
+    m = evaluate_json(capsys, out, house, dtm)
     along = points_along(route.positions)
     truth = (along[:, 2] - slope(along[:, 0], along[:, 1])).min()
     assert truth < SECURITY - 0.5 and not m["safe"]
@@ -124,11 +129,7 @@ def hill(x, y):
 
 
 def test_hill_beside_the_house_is_flown_over_or_around_at_the_minimum_altitude(tmp_path, capsys):
-    dtm = write_dtm(tmp_path / "hill.tif", hill)
-    house = house_on(tmp_path, hill)
-    out = tmp_path / "r.json"
-    assert main(["plan", str(house), "--terrain", str(dtm), *ARGS, "-o", str(out)]) == 0
-    route = Route.load(out)
+    dtm, house, out, route = plan_site(tmp_path, hill)
     # Independent ground: a linear interpolation of the raster's own pixel centres.
     with rasterio.open(dtm) as f:
         grid = f.read(1)[::-1]
@@ -143,9 +144,7 @@ def test_hill_beside_the_house_is_flown_over_or_around_at_the_minimum_altitude(t
     d = trimesh.proximity.closest_point(scene.targets[0].mesh, along)[1]
     assert d.min() >= SECURITY - 1e-6
     # The hill hides part of the east wall's foot from low viewpoints, not all of it.
-    capsys.readouterr()
-    assert main(["evaluate", str(out), "--target", str(house), "--terrain", str(dtm), "--json"]) == 0
-    m = json.loads(capsys.readouterr().out)
+    m = evaluate_json(capsys, out, house, dtm)
     assert m["safe"] and m["coverage_pct"] >= 99.5
 
 

@@ -63,8 +63,9 @@ def _lattice(clearance, limits, lo, hi, spacing: float, radius: float, far: floa
     upper, _owner = clearance.kd_distance(nodes, far)
     upper = np.minimum(upper, far)
     lower = np.maximum(upper - clearance.cover_radius, 0.0)
-    ok = (lower >= radius) & limits.above_floor(nodes)
-    unsure = np.flatnonzero(~ok & (upper >= radius) & limits.above_floor(nodes))
+    high = limits.above_floor(nodes)
+    ok = (lower >= radius) & high
+    unsure = np.flatnonzero(~ok & (upper >= radius) & high)
     if len(unsure):
         ok[unsure] = clearance.points_clear(nodes[unsure], radius, check_inside=False)
     # Nodes inside buildings stay in components the start cannot reach; no inside test needed.

@@ -55,11 +55,6 @@ class Terrain:
     def shape(self) -> tuple[int, int]:
         return self.heights.shape
 
-    @property
-    def bounds_xy(self) -> np.ndarray:
-        ny, nx = self.shape
-        return np.array([[self.x0, self.y0], [self.x0 + (nx - 1) * self.dx, self.y0 + (ny - 1) * self.dy]])
-
     def _grid_coords(self, xy):
         xy = np.asarray(xy, dtype=float).reshape(-1, 2)
         return (xy[:, 0] - self.x0) / self.dx, (xy[:, 1] - self.y0) / self.dy
@@ -79,12 +74,6 @@ class Terrain:
     def height(self, xy) -> np.ndarray:
         """Ground height under each (x, y)."""
         return self._height_uv(*self._grid_coords(xy))
-
-    def covers(self, xy) -> np.ndarray:
-        """Whether each (x, y) lies over the grid (elsewhere the edge height stands in)."""
-        lo, hi = self.bounds_xy
-        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
-        return ((xy >= lo - 1e-9) & (xy <= hi + 1e-9)).all(axis=1)
 
     def lowest_in(self, lo_xy, hi_xy) -> float:
         """Lowest ground over the box [lo_xy, hi_xy] (clamped to the grid like ``height``)."""
@@ -145,7 +134,7 @@ class Terrain:
         out = np.empty(len(a))
         u0, v0 = self._grid_coords(a[:, :2])
         u1, v1 = self._grid_coords(b[:, :2])
-        work = 2 + np.abs(u1 - u0) + np.abs(v1 - v0) + np.abs(u1 + v1 - u0 - v0) + 3
+        work = 5 + np.abs(u1 - u0) + np.abs(v1 - v0) + np.abs(u1 + v1 - u0 - v0)  # ends + crossings, roughly
         first = 0
         while first < len(a):  # chunks of about max_checks points
             last = first + max(1, int(np.searchsorted(np.cumsum(work[first:]), max_checks)))

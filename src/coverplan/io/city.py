@@ -128,6 +128,7 @@ class CityModel:
     crs: tuple[str | None, str | None] = (None, None)
     skipped: int = 0  # polygons that could not be triangulated
     _bounds: dict = field(default_factory=dict, repr=False)  # LoD -> (n, 4) xy bounds
+    _ground: dict = field(default_factory=dict, repr=False)  # LoD -> ground objects' triangles, (n, 4) xy bounds
 
     @property
     def with_geometry(self) -> list[CityObject]:
@@ -162,16 +163,12 @@ class CityModel:
     def ground_near(self, lo, hi, radius: float, lod: int | None) -> list[np.ndarray]:
         """Triangles of the ground objects (any LoD: a relief at LoD 0 still has heights)
         within ``radius`` of the xy box [lo, hi]."""
-        out = []
-        for o in self.objects:
-            if o.kind not in GROUND_KINDS or not o.by_lod:
-                continue
-            tri = self.triangles(o, lod)
-            pts = tri.reshape(-1, 3)[:, :2]
-            gap = np.maximum(np.maximum(pts.min(axis=0) - hi, lo - pts.max(axis=0)), 0.0)
-            if np.linalg.norm(gap) <= radius:
-                out.append(tri)
-        return out
+        if lod not in self._ground:  # gathered once per LoD: a batch asks for every building
+            tris = [self.triangles(o, lod) for o in self.objects if o.kind in GROUND_KINDS and o.by_lod]
+            boxes = [np.r_[t.reshape(-1, 3)[:, :2].min(axis=0), t.reshape(-1, 3)[:, :2].max(axis=0)] for t in tris]
+            self._ground[lod] = (tris, np.asarray(boxes, dtype=float).reshape(-1, 4))
+        tris, boxes = self._ground[lod]
+        return [t for t, near in zip(tris, _within(boxes, lo, hi, radius)) if near]
 
     def footprint(self, obj: CityObject, lod: int | None = None):
         """The object's outline seen from above (a shapely polygon), in file coordinates."""
@@ -217,8 +214,7 @@ class CityModel:
         boxes = self.xy_bounds(lod)
         tri = np.vstack(target.by_lod[chosen])
         lo, hi = tri.reshape(-1, 3)[:, :2].min(axis=0), tri.reshape(-1, 3)[:, :2].max(axis=0)
-        gap = np.maximum(np.maximum(boxes[:, :2] - hi, lo - boxes[:, 2:]), 0.0)
-        near = np.linalg.norm(gap, axis=1) <= radius
+        near = _within(boxes, lo, hi, radius)
         parts = [(target.id, tri)]
         nearby = [o for o, keep in zip(with_geometry, near) if keep and o is not target]
         parts += [(o.id, self.triangles(o, lod)) for o in nearby if o.kind not in GROUND_KINDS]
@@ -257,6 +253,12 @@ class Neighbourhood:
             h.update(oid.encode())
             h.update(np.ascontiguousarray(tri, dtype=np.float64).tobytes())
         return h.hexdigest()[:16]
+
+
+def _within(boxes, lo, hi, radius: float) -> np.ndarray:
+    """Which (n, 4) xy boxes come within ``radius`` of the box [lo, hi]."""
+    gap = np.maximum(np.maximum(boxes[:, :2] - hi, lo - boxes[:, 2:]), 0.0)
+    return np.linalg.norm(gap, axis=1) <= radius
 
 
 def _mesh(tri: np.ndarray) -> trimesh.Trimesh:
