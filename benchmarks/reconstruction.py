@@ -68,6 +68,15 @@ def main(argv=None):
         args.width, args.flights = 480, [f for f in args.flights if f != "thesis-rule"]
     camera = get_camera(CAMERA)
     rows = []
+
+    def save(rows):  # after every flight too: a full run takes hours, a stopped one keeps its rows
+        for r in rows:
+            scan = next((s for s in rows if s["scene"] == r["scene"] and s["flight"] == "structure-scan"), None)
+            r["photos_vs_scan"] = r["photos"] / scan["photos"] if scan else None
+        return write_json("reconstruction" + (f"_{args.tag}" if args.tag else ""), args.quick,
+                          {"camera": CAMERA, "gsd_m": GSD, "security_m": SECURITY, "photo_width_px": args.width,
+                           "rows": rows})
+
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(args.keep or tmp)
         for name in names:
@@ -78,26 +87,24 @@ def main(argv=None):
             ours_s = time.perf_counter() - t
             if "coverplan" in args.flights:
                 rows.append(run(name, "coverplan", ours, scene, ours_s, out, args.width))
+                save(rows)
             if "thesis-rule" in args.flights:
                 t = time.perf_counter()
                 thesis = plan(scene, camera, gsd=GSD, security=SECURITY, rule="thesis")
                 rows.append(run(name, "thesis-rule", thesis, scene, time.perf_counter() - t, out, args.width))
+                save(rows)
             if "structure-scan" in args.flights:
                 t = time.perf_counter()
                 scan = structure_scan(scene, camera, GSD, SECURITY, ours.positions[0])
                 rows.append(run(name, "structure-scan", scan, scene, time.perf_counter() - t, out, args.width))
-    for r in rows:
-        scan = next((s for s in rows if s["scene"] == r["scene"] and s["flight"] == "structure-scan"), None)
-        r["photos_vs_scan"] = r["photos"] / scan["photos"] if scan else None
+                save(rows)
     print(table(rows, [("scene", "scene", ""), ("flight", "flight", ""), ("photos", "photos", "d"),
                        ("photos_vs_scan", "x scan", ".2f"), ("path_m", "path m", ".0f"),
                        ("flight_min", "flight min", ".1f"), ("plan_s", "plan s", ".1f"),
                        ("registered", "registered", "d"), ("models", "models", "d"),
                        ("surface_01_pct", "@0.1 m %", ".1f"), ("surface_02_pct", "@0.2 m %", ".1f"),
                        ("worst_class", "worst class", ""), ("worst_class_pct", "worst %", ".1f")]))
-    path = write_json("reconstruction" + (f"_{args.tag}" if args.tag else ""), args.quick, {"camera": CAMERA, "gsd_m": GSD, "security_m": SECURITY,
-                                                     "photo_width_px": args.width, "rows": rows})
-    print(f"written {path}")
+    print(f"written {save(rows)}")
 
 
 if __name__ == "__main__":

@@ -17,7 +17,7 @@ pycolmap = pytest.importorskip("pycolmap", reason="simulate needs the sfm extra"
 
 from coverplan.simulate import Simulation, simulate  # noqa: E402
 
-WIDTH = 1024  # px: the default photo width; a 32-photo flight takes about a minute on 2 cores
+WIDTH = 1024  # px: the default photo width; the 38-photo flight takes about a minute on 2 cores
 
 
 @pytest.fixture(scope="module")
@@ -42,9 +42,12 @@ def test_default_plan_reconstructs_as_one_model(simulated, house):
     # The alignment is a similarity fitted to the true centres: a correct reconstruction puts
     # every registered camera within centimetres of where the route flies it.
     assert sim.centre_error_m["median"] < 0.05 and sim.centre_error_m["max"] < 0.25, sim.table()
+    # DESIGN.md's bar, from COLMAP's points: >= 95 % of the surface within 0.2 m of one, and
+    # >= 90 % of every class (measured 99.9 %, every class >= 99.7 %).
     by = sim.surface["by_radius"]["0.2"]
-    assert by["pct"] >= 75.0, sim.table()
-    assert min(by["by_class_pct"].values()) >= 50.0, sim.table()
+    assert by["pct"] >= 95.0, sim.table()
+    assert min(by["by_class_pct"].values()) >= 90.0, sim.table()
+    assert sim.reconstructable
     assert sim.surface["by_radius"]["0.1"]["pct"] <= by["pct"]
 
 

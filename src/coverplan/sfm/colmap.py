@@ -1,8 +1,9 @@
 """Structure-from-Motion on simulated photos with pycolmap (CPU), and its alignment.
 
-Known intrinsics (one PINHOLE camera, never refined), SIFT features, exhaustive matching for
-small flights or each photo's nearest cameras for large ones, incremental mapping. The
-largest model is aligned to the true camera centres by a similarity (robust LO-RANSAC).
+Known intrinsics (one PINHOLE camera, never refined), SIFT features at COLMAP's defaults,
+exhaustive matching for small flights or each photo's co-visible partners for large ones,
+incremental mapping. The largest model is aligned to the true camera centres by a similarity
+(robust LO-RANSAC).
 """
 
 from __future__ import annotations
@@ -84,9 +85,7 @@ def covisible_pairs(seen: list[np.ndarray], cell: float, k: int) -> list[tuple[i
 
 
 def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, pairs: list[tuple[int, int]],
-            work_dir: Path, *, exhaustive_limit: int = 80, max_features: int = 8192, first_octave: int = 0,
-            peak_threshold: float = 0.004,
-            threads: int = -1,
+            work_dir: Path, *, exhaustive_limit: int = 80, max_features: int = 8192, threads: int = -1,
             seed: int = 0, progress=None) -> SfmResult:
     """Features, matching and incremental mapping over the photos ``names`` in ``image_dir``;
     above ``exhaustive_limit`` photos only the given ``pairs`` (indices into ``names``) are matched."""
@@ -109,8 +108,9 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     extraction.num_threads = threads
     extraction.max_image_size = max(photo.width, photo.height)
     extraction.sift.max_num_features = max_features
-    extraction.sift.first_octave = first_octave
-    extraction.sift.peak_threshold = peak_threshold
+    # The rest of SIFT stays at COLMAP's defaults, as a user's own COLMAP run would have it.
+    # Starting at octave 0 instead of -1 (no upsampling) found a quarter of the features and
+    # left about 10 % of a well-photographed wall without a point within 0.2 m.
     with _stage(progress, "SfM features"):
         pycolmap.extract_features(database, image_dir, image_names=names, camera_mode=pycolmap.CameraMode.SINGLE,
                                   reader_options=reader, extraction_options=extraction,
