@@ -306,7 +306,8 @@ def _match_rule(args):
     from .reconstructability import MatchRule
 
     given = {k: v for k, v in (("max_pair_deg", args.max_pair_deg), ("min_overlap", args.min_overlap),
-                               ("min_neighbours", args.min_neighbours)) if v is not None}
+                               ("min_neighbours", args.min_neighbours), ("sharp_views", args.sharp_views))
+             if v is not None}
     if not given:
         return None
     if args.rule != "sfm":
@@ -317,6 +318,8 @@ def _match_rule(args):
         raise ParameterError(f"--min-overlap must be in (0, 1], got {args.min_overlap}")
     if given.get("min_neighbours", 2) < 0:
         raise ParameterError(f"--min-neighbours must be >= 0, got {args.min_neighbours}")
+    if given.get("sharp_views", 1) < 0:
+        raise ParameterError(f"--sharp-views must be >= 0, got {args.sharp_views}")
     return MatchRule(**given)
 
 
@@ -508,6 +511,9 @@ def _add_planning_args(p):
                    help="sfm rule: surface two linked photos share (default 0.3)")
     p.add_argument("--min-neighbours", type=int, default=None,
                    help="sfm rule: linked photos every photo needs (default 2)")
+    p.add_argument("--sharp-views", type=int, default=None, metavar="N",
+                   help="sfm rule: views per surface point within 35 deg of its normal, or as near as any "
+                        "safe viewpoint gets plus 5 deg (default 1; 0: none asked)")
     p.add_argument("--max-incidence-deg", type=float, default=70.0)
     p.add_argument("--min-altitude", type=float, default=None, metavar="M",
                    help="lowest flight height above the ground (default: the security distance)")

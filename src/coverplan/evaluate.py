@@ -15,7 +15,7 @@ from .errors import ParameterError
 from .reachability import ViewLimits, reachability, scene_limits
 from .route import Route
 from .surface import CLASS_NAMES, SurfaceSamples, check_spacing, sample_surface
-from .reconstructability import MatchRule, graph_summary, shot_links
+from .reconstructability import SHARP_INCIDENCE_DEG, MatchRule, graph_summary, incidence_deg, shot_links
 from .visibility import has_pair_between, imaging_pairs, view_rays, widest_pair_angle
 
 ORIENTATION_TOLERANCE_DEG = 0.5
@@ -199,11 +199,19 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
                                    "centroid": pts.mean(axis=0).tolist(),
                                    "bounds": [pts.min(axis=0).tolist(), pts.max(axis=0).tolist()]})
     missed = reach & ~ev.covered
-    by_class = {}
+    # Sharp views (reconstructability.py): what SfM rebuilds depends on how squarely the
+    # best photo sees the surface, so it is reported beside the view count.
+    cam, pt, _rng = ev.pairs
+    best = np.full(len(samples), np.inf)
+    np.minimum.at(best, pt, incidence_deg(cam, pt, shot_pos, samples.points, samples.normals))
+    sharp = ev.covered & reach & (best <= SHARP_INCIDENCE_DEG)
+    by_class, sharp_by_class = {}, {}
     for k, name in enumerate(CLASS_NAMES):
         sel = (samples.kind == k) & reach
         if sel.any():
             by_class[name] = 100.0 * float(area[sel & ev.covered].sum()) / float(area[sel].sum())
+        if (sel & ev.covered).any():
+            sharp_by_class[name] = 100.0 * float(area[sel & sharp].sum()) / float(area[sel & ev.covered].sum())
     worst_where = None
     if seg_k is not None and len(route.positions) > 1:
         worst_where = scene.clearance_model(route.security).closest_point_on_segment(route.positions[seg_k],
@@ -217,6 +225,9 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
         "covered_area_m2": covered_area,
         "coverage_pct": 100.0 * covered_area / reachable_area if reachable_area > 0 else 0.0,
         "coverage_by_class_pct": by_class,
+        "sharp_view_pct": 100.0 * float(area[sharp].sum()) / covered_area if covered_area > 0 else 0.0,
+        "sharp_view_by_class_pct": sharp_by_class,
+        "best_incidence_deg": _stats(best[ev.covered & reach]),
         "uncovered_reachable_area_m2": float(area[missed].sum()),
         "uncovered_reachable_samples": int(missed.sum()),
         "unreachable_area_m2": float(area[~reach].sum()),
@@ -274,6 +285,13 @@ def _fmt(v, unit="") -> str:
     return f"{v}{unit}"
 
 
+def _worst_class(pct: dict) -> str:
+    if len(pct) < 2:
+        return ""
+    name = min(pct, key=pct.get)
+    return f" (least: {name.replace('_', ' ')} {pct[name]:.1f} %)"
+
+
 def format_metrics(m: dict) -> str:
     """A terminal table of the metrics."""
     def stats(name, s, unit=""):
@@ -291,6 +309,8 @@ def format_metrics(m: dict) -> str:
                                 f"{_fmt(m.get('min_altitude_m'), ' m')})"),
         ("orientation mismatches", str(m["orientation_mismatches"])),
         ("coverage of reachable", f"{m['coverage_pct']:.2f} % (checked every {m['sample_spacing_m']:.2f} m)"),
+        (f"seen within {SHARP_INCIDENCE_DEG:g} deg", f"{m['sharp_view_pct']:.1f} % of the covered surface"
+                               + _worst_class(m.get("sharp_view_by_class_pct", {}))),
         ("reachable surface", f"{m['reachable_area_m2']:,.1f} of {m['surface_area_m2']:,.1f} m2"),
         ("uncovered reachable", f"{m['uncovered_reachable_area_m2']:,.1f} m2 ({m['uncovered_reachable_samples']} samples)"),
         ("unreachable", f"{m['unreachable_area_m2']:,.1f} m2 ({m['unreachable_samples']} samples)"),

@@ -19,7 +19,7 @@ from .flighttime import FlightModel
 from .pathing import (build_flight_graph, closure_hops, lattice_spacing, leg, shortcut,
                       shot_distances)
 from .progress import Progress
-from .reconstructability import MatchRule, connect_shots
+from .reconstructability import MatchRule, add_sharp_views, connect_shots, incidence_deg
 from .reachability import ViewLimits, reachability, scene_limits
 from .route import Route, polyline_length
 from .repair import MAX_ROUNDS, TARGET_PCT, CoverProblem, GapCloser
@@ -234,6 +234,13 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
                                  progress=update, max_pair_deg=max_pair)
     covering = len(selection.chosen)
     lp_bound = selection.lp_bound
+    if match is not None and match.sharp_views and len(selection.chosen):
+        with progress.stage("sharp views for SfM"):
+            cam, pt, _ = problem.pairs
+            inc = incidence_deg(cam, pt, problem.cands.positions, samples.points, samples.normals)
+            selection.chosen = add_sharp_views(cam, pt, inc, len(problem.cands), samples.area, selection.chosen,
+                                               views=match.sharp_views)
+    sharpening = len(selection.chosen) - covering
     if match is not None and len(selection.chosen):
         with progress.stage("linking shots for SfM"):
             selection.chosen = connect_shots(vis, problem.cands.positions, samples.points, selection.chosen, match)
@@ -307,14 +314,15 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     route.params["rule"] = rule
     if match is not None:
         route.params.update({"max_pair_deg": match.max_pair_deg, "min_overlap": match.min_overlap,
-                             "min_neighbours": match.min_neighbours})
+                             "min_neighbours": match.min_neighbours, "sharp_views": match.sharp_views})
     _final_check(route, scene, limits)
 
     fine = check.samples
     route.metrics = {
         "shots": int(route.shot.sum()),
         "selected_views": int(len(chosen)),
-        "linking_shots": int(max(len(selection.chosen) - covering, 0)),
+        "sharp_view_shots": int(sharpening),
+        "linking_shots": int(max(len(selection.chosen) - covering - sharpening, 0)),
         "repair_shots": int(max(len(chosen) - len(selection.chosen), 0)),
         "repair_rounds": len(history) - 1,
         "check_coverage_history_pct": history,
