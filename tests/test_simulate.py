@@ -17,7 +17,9 @@ pycolmap = pytest.importorskip("pycolmap", reason="simulate needs the sfm extra"
 
 from coverplan.simulate import Simulation, simulate  # noqa: E402
 
-WIDTH = 1024  # px: the default photo width; the 38-photo flight takes about a minute on 2 cores
+# px: below the default 1024 to keep the 43-photo flight near a minute on 2 cores; the verdict
+# is the same (768 px: 99.2 % rebuilt, 1024 px: 99.3 %, every class within 0.1 pp).
+WIDTH = 768
 
 
 @pytest.fixture(scope="module")
@@ -43,7 +45,7 @@ def test_default_plan_reconstructs_as_one_model(simulated, house):
     # every registered camera within centimetres of where the route flies it.
     assert sim.centre_error_m["median"] < 0.05 and sim.centre_error_m["max"] < 0.25, sim.table()
     # DESIGN.md's bar, from COLMAP's points: >= 95 % of the surface within 0.2 m of one, and
-    # >= 90 % of every class (measured 99.9 %, every class >= 99.7 %).
+    # >= 90 % of every class (measured 99.2 %, the least class 96.0 %).
     by = sim.surface["by_radius"]["0.2"]
     assert by["pct"] >= 95.0, sim.table()
     assert min(by["by_class_pct"].values()) >= 90.0, sim.table()
