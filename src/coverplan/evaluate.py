@@ -15,7 +15,8 @@ from .errors import ParameterError
 from .reachability import ViewLimits, reachability, scene_limits
 from .route import Route
 from .surface import CLASS_NAMES, SurfaceSamples, check_spacing, sample_surface
-from .reconstructability import SHARP_INCIDENCE_DEG, MatchRule, graph_summary, incidence_deg, shot_links
+from .reconstructability import (SHARP_INCIDENCE_DEG, MatchRule, best_incidence, graph_summary, incidence_deg,
+                                 shot_links)
 from .visibility import has_pair_between, imaging_pairs, view_rays, widest_pair_angle
 
 ORIENTATION_TOLERANCE_DEG = 0.5
@@ -202,8 +203,7 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
     # Sharp views (reconstructability.py): what SfM rebuilds depends on how squarely the
     # best photo sees the surface, so it is reported beside the view count.
     cam, pt, _rng = ev.pairs
-    best = np.full(len(samples), np.inf)
-    np.minimum.at(best, pt, incidence_deg(cam, pt, shot_pos, samples.points, samples.normals))
+    best = best_incidence(pt, incidence_deg(cam, pt, shot_pos, samples.points, samples.normals), len(samples))
     sharp = ev.covered & reach & (best <= SHARP_INCIDENCE_DEG)
     by_class, sharp_by_class = {}, {}
     for k, name in enumerate(CLASS_NAMES):

@@ -198,25 +198,27 @@ def incidence_deg(cam: np.ndarray, pt: np.ndarray, positions: np.ndarray, points
     return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
 
 
+def best_incidence(pt: np.ndarray, incidence: np.ndarray, n_samples: int) -> np.ndarray:
+    """Per sample: the smallest incidence of its (camera, sample) pairs (inf when it has none)."""
+    best = np.full(n_samples, np.inf)
+    np.minimum.at(best, pt, incidence)
+    return best
+
+
 def sharp_targets(pt: np.ndarray, incidence: np.ndarray, n_samples: int, limit_deg: float = SHARP_INCIDENCE_DEG,
                   slack_deg: float = SHARP_SLACK_DEG) -> np.ndarray:
     """Per sample: the incidence a sharp view must reach, ``limit_deg`` or, where no pair
     reaches that, the sample's best incidence plus ``slack_deg``."""
-    best = np.full(n_samples, np.inf)
-    np.minimum.at(best, pt, incidence)
-    return np.maximum(limit_deg, best + slack_deg)
+    return np.maximum(limit_deg, best_incidence(pt, incidence, n_samples) + slack_deg)
 
 
 def add_sharp_views(cam: np.ndarray, pt: np.ndarray, incidence: np.ndarray, n_cands: int, area: np.ndarray,
-                    chosen: np.ndarray, views: int = 1, min_gain_m2: float = 1.0,
-                    targets: np.ndarray | None = None) -> np.ndarray:
+                    chosen: np.ndarray, views: int = 1, min_gain_m2: float = 1.0) -> np.ndarray:
     """Add candidates to ``chosen`` until every sample has ``views`` views at its sharp
     incidence (``sharp_targets``) or no candidate adds ``min_gain_m2`` of surface that lacks
     them. Greedy: each time the candidate giving most such surface a sharp view."""
     n = len(area)
-    if targets is None:
-        targets = sharp_targets(pt, incidence, n)
-    sharp = incidence <= targets[pt]
+    sharp = incidence <= sharp_targets(pt, incidence, n)[pt]
     m = sp.csr_matrix((np.ones(int(sharp.sum())), (cam[sharp], pt[sharp])), shape=(n_cands, n))
     offered = np.asarray(m.sum(axis=0)).ravel()
     taken = np.zeros(n_cands, dtype=bool)
