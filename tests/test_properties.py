@@ -3,8 +3,9 @@
 Random box or star-prism targets, up to three random obstacles (standing, floating, or
 touching the target), random camera preset, security distance and GSD. The planner must
 either refuse with a documented error or return a route the evaluator finds safe, covering
-at least 98 % of the reachable surface checked every 0.25 m on samples it never saw (99.9 %
-on average), never claiming more than 0.5 pp above that, and whose every check sample not listed as uncovered is covered.
+at least 99.5 % of the reachable surface checked every 0.25 m on samples it never saw (99.9 %
+on average), never claiming more than 0.1 pp above that (issue 12's bar), and whose every
+check sample not listed as uncovered is covered.
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from coverplan.repair import planner_check_samples
 from coverplan.scene import scene_from_meshes
 
 EXAMPLES = 200
-CLAIM_TOLERANCE_PP = 0.5  # how far the planner's coverage figure may exceed the evaluator's
+CLAIM_TOLERANCE_PP = 0.1  # how far the planner's coverage figure may exceed the evaluator's
 FINE_COVERAGE: list[float] = []  # evaluator's coverage of each planned example
 
 
@@ -78,15 +79,13 @@ def test_random_scene_route_is_safe_and_claims_recheck(target, obs, opts):
     assert m["altitude_violations"] == 0 and m["orientation_mismatches"] == 0
     assert polyline_min_distance(route.positions, scene.meshes, opts["security"] / 5) >= opts["security"]
     assert not (ev.covered & ~ev.reachable).any()  # what the route images is reachable, evidently
-    # Most examples reach 99.9 %; a few where obstacles leave a wall a window of safe positions
-    # a metre or two wide stay near 99 % (98.8 % and 99.49 % seen), the short samples listed
-    # with their reasons. Which examples hypothesis draws varies between runs.
-    assert m["coverage_pct"] >= 98.0, (m["coverage_pct"], route.metrics["check_coverage_history_pct"])
-    # The two figures come from different samples. They differ most where a wall is reachable
-    # only through a slot: there reachability changes from one sample to the next, and the
-    # evaluator's samples can find more of it reachable (and missed) than the planner's did.
-    # Seen: 0.45 pp on a star prism with a post 0.85 m from a wall. Issue 12 tracks it.
-    assert route.metrics["planned_coverage_pct"] <= m["coverage_pct"] + CLAIM_TOLERANCE_PP
+    # Since repair repeats until nothing coverable is missed, the 200 examples reach 99.94 % at
+    # least and the claim exceeds the evaluator by 0.06 pp at most (November 24; 98.8 % and
+    # 0.45 pp before, where a wall was reachable only through a slot between obstacles).
+    assert m["coverage_pct"] >= 99.5, (m["coverage_pct"], route.metrics["check_coverage_history_pct"])
+    # The two figures come from different samples, so they may differ a little either way.
+    assert route.metrics["planned_coverage_pct"] <= m["coverage_pct"] + CLAIM_TOLERANCE_PP, (
+        route.metrics["planned_coverage_pct"], m["coverage_pct"])
     FINE_COVERAGE.append(m["coverage_pct"])
     # The planner's claims on its own check samples: what it does not list is covered, and
     # what it lists as unreachable the evaluator finds unreachable too.
