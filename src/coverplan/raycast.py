@@ -98,8 +98,12 @@ class RayCaster:
         votes = np.zeros((len(points), max(self.n_meshes, 1)), dtype=np.int32)
         if self.n_meshes == 0 or len(points) == 0:
             return votes[:, :self.n_meshes] > 0
-        for direction in _PARITY_DIRECTIONS:
-            votes += self.crossings(points, direction) % 2
+        votes += self.crossings(points, _PARITY_DIRECTIONS[0]) % 2
+        votes += self.crossings(points, _PARITY_DIRECTIONS[1]) % 2
+        # Where the first two rays agree the third cannot change the majority.
+        split = np.flatnonzero((votes == 1).any(axis=1))
+        if len(split):
+            votes[split] += self.crossings(points[split], _PARITY_DIRECTIONS[2]) % 2
         return votes >= 2
 
     def inside(self, points) -> np.ndarray:

@@ -122,7 +122,7 @@ def sample_surface(scene, spacing: float, seed: int = 0, oversample: float = 6.0
 
     # One sample per (cell, normal direction, part): the dense point nearest the cell's mean.
     cell = np.floor(dense / spacing).astype(np.int64)
-    bucket = np.argmax(normals[face] @ _BUCKETS.T, axis=1)
+    bucket = np.argmax(normals @ _BUCKETS.T, axis=1)[face]
     key = np.column_stack([cell - cell.min(axis=0), bucket, owner[face]])
     dims = key.max(axis=0) + 1
     if np.prod(dims.astype(float)) < 2.0 ** 62:  # one int64 per key: unique on scalars sorts far faster
@@ -133,8 +133,12 @@ def sample_surface(scene, spacing: float, seed: int = 0, oversample: float = 6.0
     means = np.column_stack([np.bincount(group, weights=dense[:, k], minlength=len(counts))
                              for k in range(3)]) / counts[:, None]
     off = np.linalg.norm(dense - means[group], axis=1)
-    order = np.lexsort((off, group))
-    first = order[np.r_[True, group[order][1:] != group[order][:-1]]]
+    # Per group the nearest point (the lowest index among ties), without sorting all of them.
+    least = np.full(len(counts), np.inf)
+    np.minimum.at(least, group, off)
+    ties = np.flatnonzero(off == least[group])
+    first = np.full(len(counts), len(off))
+    np.minimum.at(first, group[ties], ties)
     points, sample_face = dense[first], face[first]
     sample_area = counts[group[first]] * dense_area
     sample_normals = normals[sample_face]
