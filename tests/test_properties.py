@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 import trimesh
 from conftest import box
-from hypothesis import HealthCheck, Phase, given, settings
+from hypothesis import HealthCheck, Phase, given, seed, settings
 from hypothesis import strategies as st
 from independent import polyline_min_distance
 from shapely.geometry import Polygon
@@ -25,7 +25,7 @@ from coverplan.scene import scene_from_meshes
 
 EXAMPLES = 200
 CLAIM_TOLERANCE_PP = 0.1  # how far the planner's coverage figure may exceed the evaluator's
-FINE_COVERAGE: list[float] = []  # evaluator's coverage of each planned example
+FINE_COVERAGE: dict[tuple, float] = {}  # evaluator's coverage per planned scene (hypothesis may draw one twice)
 
 
 @st.composite
@@ -61,7 +61,10 @@ def settings_(draw):
 
 
 # No shrinking: a failing example is reported as found (shrinking one takes many minutes).
-@settings(max_examples=EXAMPLES, deadline=None, derandomize=True, database=None,
+# A fixed seed, not derandomize: derandomize seeds from the test's source, so every edit of
+# this file drew another 200 scenes.
+@seed(20261124)
+@settings(max_examples=EXAMPLES, deadline=None, database=None,
           phases=[Phase.explicit, Phase.generate], suppress_health_check=[HealthCheck.too_slow])
 @given(target=targets(), obs=obstacles(), opts=settings_())
 def test_random_scene_route_is_safe_and_claims_recheck(target, obs, opts):
@@ -73,20 +76,22 @@ def test_random_scene_route_is_safe_and_claims_recheck(target, obs, opts):
         assert str(exc) and "\n" not in str(exc)
         return
     ev = evaluate(route, scene)  # every 0.25 m, on samples the planner never saw
+    key = (tuple(np.round(target.bounds.ravel(), 6)), tuple(tuple(np.round(o.bounds.ravel(), 6)) for o in obs),
+           opts["camera"].name, round(opts["security"], 9), round(opts["gsd"], 12))
     m = ev.metrics
     assert m["safe"], m["unsafe_segments"]
     assert m["min_clearance_m"] >= opts["security"]
     assert m["altitude_violations"] == 0 and m["orientation_mismatches"] == 0
     assert polyline_min_distance(route.positions, scene.meshes, opts["security"] / 5) >= opts["security"]
     assert not (ev.covered & ~ev.reachable).any()  # what the route images is reachable, evidently
-    # Since repair repeats until nothing coverable is missed, the 200 examples reach 99.94 % at
-    # least and the claim exceeds the evaluator by 0.06 pp at most (November 24; 98.8 % and
-    # 0.45 pp before, where a wall was reachable only through a slot between obstacles).
+    # Issue 12's bar. On these 200 draws (173 distinct scenes; November 24): at least 99.72 %,
+    # mean 99.992 %, the planner's figure at most 0.038 pp above the evaluator's. Before the
+    # check's ball (repair.CHECK_BALL) other draws had a 3 m box claim 100 % against 99.70 %.
     assert m["coverage_pct"] >= 99.5, (m["coverage_pct"], route.metrics["check_coverage_history_pct"])
     # The two figures come from different samples, so they may differ a little either way.
     assert route.metrics["planned_coverage_pct"] <= m["coverage_pct"] + CLAIM_TOLERANCE_PP, (
         route.metrics["planned_coverage_pct"], m["coverage_pct"])
-    FINE_COVERAGE.append(m["coverage_pct"])
+    FINE_COVERAGE[key] = m["coverage_pct"]
     # The planner's claims on its own check samples: what it does not list is covered, and
     # what it lists as unreachable the evaluator finds unreachable too.
     mine = evaluate(route, scene, samples=planner_check_samples(scene, route))
@@ -99,10 +104,11 @@ def test_random_scene_route_is_safe_and_claims_recheck(target, obs, opts):
 
 
 def test_random_scenes_mean_coverage():
-    """Over the examples above, coverage at 0.25 m averages at least 99.9 %."""
+    """Over the scenes above, coverage at 0.25 m averages at least 99.9 %."""
     if len(FINE_COVERAGE) < 20:
         pytest.skip("runs after the property test (needs its results)")
-    assert np.mean(FINE_COVERAGE) >= 99.9, (np.mean(FINE_COVERAGE), min(FINE_COVERAGE))
+    coverage = list(FINE_COVERAGE.values())
+    assert np.mean(coverage) >= 99.9, (np.mean(coverage), min(coverage))
 
 
 @pytest.mark.slow

@@ -19,9 +19,13 @@ from .orientation import camera_axes
 
 
 def imaging_pairs(positions, headings, pitches, camera, points, normals, rays, *,
-                  max_range: float, max_incidence_deg: float, shrink: float = 0.0,
+                  max_range: float, max_incidence_deg: float, shrink: float = 0.0, ball_m: float = 0.0,
                   offset: float = 1e-3, cameras_per_chunk: int = 8, progress=None):
     """All (camera, point) pairs where the camera images the point, with their ranges.
+
+    ``ball_m`` > 0 asks more: the frustum and range tests must hold for every point within
+    ``ball_m`` of the point, and the incidence test with the angle such a move can add, so
+    that a view found for one sample also holds for the surface around it.
 
     Cameras are taken in spatially compact chunks; each chunk's candidate points come from one
     KD-tree ball query, and the frustum, range and incidence tests run as dense matrix
@@ -35,7 +39,6 @@ def imaging_pairs(positions, headings, pitches, camera, points, normals, rays, *
     right, up, forward = (np.atleast_2d(a) for a in (right, up, forward))
     keep = 1.0 - shrink
     tan_h, tan_v = camera.tan_half_hfov * keep, camera.tan_half_vfov * keep
-    cos_inc = np.cos(np.radians(max_incidence_deg * keep))
     reach = max_range * keep
     empty = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
     if len(positions) == 0 or len(points) == 0:
@@ -61,9 +64,8 @@ def imaging_pairs(positions, headings, pitches, camera, points, normals, rays, *
         y = p @ up[cams].T - np.einsum("ij,ij->i", c, up[cams])
         z = p @ forward[cams].T - np.einsum("ij,ij->i", c, forward[cams])
         dist = np.sqrt(x * x + y * y + z * z)
-        facing = (n @ c.T - np.einsum("ij,ij->i", p, n)[:, None]) >= cos_inc * dist
-        ok = ((z > 0) & (np.abs(x) <= tan_h * z) & (np.abs(y) <= tan_v * z) & (dist <= reach)
-              & (dist > 0) & facing)
+        towards = n @ c.T - np.einsum("ij,ij->i", p, n)[:, None]
+        ok = in_view(x, y, z, dist, towards, tan_h, tan_v, reach, max_incidence_deg * keep, ball_m)
         jj, kk = np.nonzero(ok)
         i, j, d = cams[kk], near[jj], dist[jj, kk]
         if len(i):
@@ -77,6 +79,23 @@ def imaging_pairs(positions, headings, pitches, camera, points, normals, rays, *
     if not out_i:
         return empty
     return np.concatenate(out_i), np.concatenate(out_j), np.concatenate(out_r)
+
+
+def in_view(x, y, z, dist, towards, tan_h: float, tan_v: float, reach: float, max_incidence_deg: float,
+            ball_m: float = 0.0) -> np.ndarray:
+    """Frustum, range and incidence tests from a point's camera-frame coordinates ``x, y, z``,
+    its range and ``towards`` = normal . (camera - point). With ``ball_m`` they must hold for
+    every point within ``ball_m`` (the incidence with the angle such a move can add)."""
+    if ball_m <= 0:
+        facing = towards >= np.cos(np.radians(max_incidence_deg)) * dist
+        return ((z > 0) & (np.abs(x) <= tan_h * z) & (np.abs(y) <= tan_v * z) & (dist <= reach)
+                & (dist > 0) & facing)
+    e = ball_m
+    with np.errstate(invalid="ignore", divide="ignore"):
+        turn = np.arcsin(np.clip(e / dist, 0.0, 1.0))
+    facing = towards >= np.cos(np.clip(np.radians(max_incidence_deg) - turn, 0.0, None)) * dist
+    return ((z > e) & (np.abs(x) + e <= tan_h * (z - e)) & (np.abs(y) + e <= tan_v * (z - e))
+            & (dist + e <= reach) & facing)
 
 
 def _spatial_order(points, cell: float) -> np.ndarray:
