@@ -6,7 +6,8 @@ the 0.25 m repair loop). The old commit is checked out into a temporary git work
 (commit, scene) plans in a fresh process, old and new alternating scene by scene so that a
 slow spell of the machine hits both. Settings as ``plan_scenes.py``; median of ``--repeats``.
 
-    python benchmarks/plan_time_vs.py c396e02 fed8e4b
+    python benchmarks/plan_time_vs.py            # against c396e02 and fed8e4b
+    python benchmarks/plan_time_vs.py --quick    # two scenes, once, against c396e02
 """
 
 from __future__ import annotations
@@ -21,6 +22,9 @@ from pathlib import Path
 
 from common import MESHES, ROOT, big_building, table, write_json
 from plan_scenes import SCENES
+
+# The commits before the work of each issue ("today's" planning time).
+BASELINES = {"c396e02": "issue 12, before the 0.25 m repair loop", "fed8e4b": "issue 11, before planning for SfM"}
 
 CHILD = """
 import json, sys, time
@@ -59,11 +63,14 @@ def plan_times(src: Path, spec: dict) -> dict:
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("commits", nargs="+", help="earlier commits to compare with (e.g. c396e02 fed8e4b)")
+    parser.add_argument("commits", nargs="*", default=list(BASELINES),
+                        help="earlier commits to compare with (default: " + " ".join(BASELINES) + ")")
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--quick", action="store_true", help="two scenes, one run each")
+    parser.add_argument("--quick", action="store_true", help="two scenes, one run each, the first commit only")
     args = parser.parse_args(argv)
     repeats = 1 if args.quick else args.repeats
+    if args.quick:
+        args.commits = args.commits[:1]
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
         sources = {}
