@@ -25,7 +25,6 @@ from coverplan.scene import scene_from_meshes
 
 EXAMPLES = 200
 CLAIM_TOLERANCE_PP = 0.1  # how far the planner's coverage figure may exceed the evaluator's
-FINE_COVERAGE: dict[tuple, float] = {}  # evaluator's coverage per planned scene (hypothesis may draw one twice)
 
 
 @st.composite
@@ -60,14 +59,8 @@ def settings_(draw):
             "min_altitude": draw(st.floats(0.5, security)), "d_opt": d_opt}
 
 
-# No shrinking: a failing example is reported as found (shrinking one takes many minutes).
-# A fixed seed, not derandomize: derandomize seeds from the test's source, so every edit of
-# this file drew another 200 scenes.
-@seed(20261124)
-@settings(max_examples=EXAMPLES, deadline=None, database=None,
-          phases=[Phase.explicit, Phase.generate], suppress_health_check=[HealthCheck.too_slow])
-@given(target=targets(), obs=obstacles(), opts=settings_())
-def test_random_scene_route_is_safe_and_claims_recheck(target, obs, opts):
+def check_random_scene(target, obs, opts, results: dict) -> None:
+    """Plan one random scene and re-check every claim; its coverage goes into ``results``."""
     scene = scene_from_meshes([target], obs)
     try:
         route = plan(scene, opts["camera"], gsd=opts["gsd"], security=opts["security"],
@@ -84,14 +77,14 @@ def test_random_scene_route_is_safe_and_claims_recheck(target, obs, opts):
     assert m["altitude_violations"] == 0 and m["orientation_mismatches"] == 0
     assert polyline_min_distance(route.positions, scene.meshes, opts["security"] / 5) >= opts["security"]
     assert not (ev.covered & ~ev.reachable).any()  # what the route images is reachable, evidently
-    # Issue 12's bar. On these 200 draws (173 distinct scenes; November 24): at least 99.72 %,
-    # mean 99.992 %, the planner's figure at most 0.038 pp above the evaluator's. Before the
+    # Issue 12's bar. On the 200 draws of the two seeds below (November 24): at least 99.71 %,
+    # mean 99.991 %, the planner's figure at most 0.01 pp above the evaluator's. Before the
     # check's ball (repair.CHECK_BALL) other draws had a 3 m box claim 100 % against 99.70 %.
     assert m["coverage_pct"] >= 99.5, (m["coverage_pct"], route.metrics["check_coverage_history_pct"])
     # The two figures come from different samples, so they may differ a little either way.
     assert route.metrics["planned_coverage_pct"] <= m["coverage_pct"] + CLAIM_TOLERANCE_PP, (
         route.metrics["planned_coverage_pct"], m["coverage_pct"])
-    FINE_COVERAGE[key] = m["coverage_pct"]
+    results[key] = m["coverage_pct"]
     # The planner's claims on its own check samples: what it does not list is covered, and
     # what it lists as unreachable the evaluator finds unreachable too.
     mine = evaluate(route, scene, samples=planner_check_samples(scene, route))
@@ -103,16 +96,49 @@ def test_random_scene_route_is_safe_and_claims_recheck(target, obs, opts):
     np.testing.assert_array_equal(said_unreachable, ~mine.reachable)
 
 
-def test_random_scenes_mean_coverage():
-    """Over the scenes above, coverage at 0.25 m averages at least 99.9 %."""
-    if len(FINE_COVERAGE) < 20:
-        pytest.skip("runs after the property test (needs its results)")
-    coverage = list(FINE_COVERAGE.values())
+def _random_scenes(seed_value: int, results: dict):
+    """EXAMPLES / 2 random scenes drawn from ``seed_value`` (two halves, so that two test
+    workers share the 200 scenes). A fixed seed, not derandomize: derandomize seeds from the
+    test's source, so every edit of this file drew other scenes. No shrinking: a failing
+    example is reported as found (shrinking one takes many minutes)."""
+
+    @seed(seed_value)
+    @settings(max_examples=EXAMPLES // 2, deadline=None, database=None,
+              phases=[Phase.explicit, Phase.generate], suppress_health_check=[HealthCheck.too_slow])
+    @given(target=targets(), obs=obstacles(), opts=settings_())
+    def run(target, obs, opts):
+        check_random_scene(target, obs, opts, results)
+
+    return run
+
+
+def _mean_coverage(results: dict) -> None:
+    if len(results) < 20:
+        pytest.skip("runs after its property test (needs its results)")
+    coverage = list(results.values())
     assert np.mean(coverage) >= 99.9, (np.mean(coverage), min(coverage))
+
+
+FIRST_HALF: dict[tuple, float] = {}  # evaluator's coverage per planned scene (hypothesis may draw one twice)
+SECOND_HALF: dict[tuple, float] = {}
+test_random_scenes_first_half = pytest.mark.xdist_group("random_scenes_1")(_random_scenes(20261124, FIRST_HALF))
+test_random_scenes_second_half = pytest.mark.xdist_group("random_scenes_2")(_random_scenes(20261125, SECOND_HALF))
+
+
+@pytest.mark.xdist_group("random_scenes_1")
+def test_first_half_mean_coverage():
+    """Over the first half's scenes, coverage at 0.25 m averages at least 99.9 %."""
+    _mean_coverage(FIRST_HALF)
+
+
+@pytest.mark.xdist_group("random_scenes_2")
+def test_second_half_mean_coverage():
+    """Over the second half's scenes, coverage at 0.25 m averages at least 99.9 %."""
+    _mean_coverage(SECOND_HALF)
 
 
 @pytest.mark.slow
 @settings(max_examples=1000, deadline=None, database=None, suppress_health_check=[HealthCheck.too_slow])
 @given(target=targets(), obs=obstacles(), opts=settings_())
 def test_random_scene_route_is_safe_many(target, obs, opts):
-    test_random_scene_route_is_safe_and_claims_recheck.hypothesis.inner_test(target, obs, opts)
+    check_random_scene(target, obs, opts, {})
