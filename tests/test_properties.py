@@ -82,10 +82,10 @@ def check_random_scene(target, obs, opts, results: dict, short: dict) -> None:
     # Issue 12's bar: 99.5 % per scene. A scene may fall short only where the planner reports
     # it short itself (its own figure below 99.5 % too, the samples it misses listed with
     # reasons), and only one in a hundred (checked below). The 200 draws of the two seeds
-    # below reached 99.71 % at least (mean 99.991 %) in one run, but the LP's time limit
-    # makes a plan depend on the machine's load: a clean CI run drew a 98.85 % scene (the
-    # planner said 98.31 %: a wall seen only between three obstacles), and other draws a wall
-    # facing an obstacle nearer than the security distance (99.43 %). Before the check's ball
+    # below reached 99.71 % at least (mean 99.991 %) in serial runs, but a clean CI run of
+    # the same halves met a scene the serial runs never drew (cause not found), at 98.85 %
+    # (the planner said 98.31 %: a wall seen only between three obstacles); other draws met a
+    # wall facing an obstacle nearer than the security distance (99.43 %). Before the check's ball
     # (repair.CHECK_BALL) a 3 m box claimed 100 % against the evaluator's 99.70 %.
     if m["coverage_pct"] < 99.5:
         assert route.metrics["planned_coverage_pct"] < 99.5, (m["coverage_pct"], route.metrics["planned_coverage_pct"])
