@@ -10,20 +10,7 @@ from coverplan import get_camera
 from coverplan.scene import scene_from_meshes
 from coverplan.visibility import imaging_pairs
 
-
-def _wall_views(ball_m, rng):
-    wall = box(-20, 0, 0, 20, 1, 20)  # its face y = 0 looks towards -y
-    scene = scene_from_meshes([wall])
-    camera = get_camera("phantom4pro")
-    n = 400
-    points = np.column_stack([rng.uniform(-8, 8, n), np.zeros(n), rng.uniform(2, 18, n)])
-    normals = np.tile([0.0, -1.0, 0.0], (n, 1))
-    cams = np.column_stack([rng.uniform(-6, 6, 60), rng.uniform(-12, -4, 60), rng.uniform(4, 16, 60)])
-    heading = rng.uniform(-40, 40, 60)
-    pitch = rng.uniform(-30, 20, 60)
-    pairs = imaging_pairs(cams, heading, pitch, camera, points, normals, scene.rays, max_range=12.0,
-                          max_incidence_deg=60.0, ball_m=ball_m)
-    return scene, camera, points, normals, cams, heading, pitch, pairs
+MAX_RANGE_M, MAX_INCIDENCE_DEG = 12.0, 60.0
 
 
 def test_ball_views_hold_around_each_sample():
@@ -32,20 +19,33 @@ def test_ball_views_hold_around_each_sample():
     of which fail there."""
     rng = np.random.default_rng(7)
     e = 0.2
-    scene, camera, points, normals, cams, heading, pitch, (ci, pi, _r) = _wall_views(e, rng)
-    _s, _c, _p, _n, _cams, _h, _pt, (ci0, pi0, _r0) = _wall_views(0.0, np.random.default_rng(7))
-    assert 0 < len(ci) < len(ci0)
+    scene = scene_from_meshes([box(-20, 0, 0, 20, 1, 20)])  # its face y = 0 looks towards -y
+    camera = get_camera("phantom4pro")
+    n = 400
+    points = np.column_stack([rng.uniform(-8, 8, n), np.zeros(n), rng.uniform(2, 18, n)])
+    normals = np.tile([0.0, -1.0, 0.0], (n, 1))
+    cams = np.column_stack([rng.uniform(-6, 6, 60), rng.uniform(-12, -4, 60), rng.uniform(4, 16, 60)])
+    heading = rng.uniform(-40, 40, 60)
+    pitch = rng.uniform(-30, 20, 60)
+
+    def pairs(ball_m):
+        ci, pi, _r = imaging_pairs(cams, heading, pitch, camera, points, normals, scene.rays,
+                                   max_range=MAX_RANGE_M, max_incidence_deg=MAX_INCIDENCE_DEG, ball_m=ball_m)
+        return ci, pi
+
+    with_ball, plain = pairs(e), pairs(0.0)
+    assert 0 < len(with_ball[0]) < len(plain[0])
     tris = scene.parts[0].mesh.triangles
     angle = rng.uniform(0, 2 * np.pi, (16,))
     moves = e * np.column_stack([np.cos(angle), np.zeros(16), np.sin(angle)])
     moves[:4] *= 0.999  # the ball's rim and just inside it
     failures_plain = 0
-    for pairs, must_hold in (((ci, pi), True), ((ci0, pi0), False)):
-        for k in np.unique(pairs[0]):
-            idx = pairs[1][pairs[0] == k]
+    for (ci, pi), must_hold in ((with_ball, True), (plain, False)):
+        for k in np.unique(ci):
+            idx = pi[ci == k]
             around = (points[idx][:, None, :] + moves[None]).reshape(-1, 3)
             seen = images(cams[k], heading[k], pitch[k], camera, around, np.tile(normals[0], (len(around), 1)),
-                          tris, 12.0, 60.0).reshape(len(idx), len(moves))
+                          tris, MAX_RANGE_M, MAX_INCIDENCE_DEG).reshape(len(idx), len(moves))
             if must_hold:
                 assert seen.all(), (k, idx[~seen.all(axis=1)])
             else:

@@ -86,7 +86,7 @@ def in_view(x, y, z, dist, towards, tan_h: float, tan_v: float, reach: float, ma
     """Frustum, range and incidence tests from a point's camera-frame coordinates ``x, y, z``,
     its range and ``towards`` = normal . (camera - point). With ``ball_m`` they must hold for
     every point within ``ball_m`` (the incidence with the angle such a move can add)."""
-    if ball_m <= 0:
+    if ball_m <= 0:  # the ball's tests with e = 0, without an arcsin per pair (every visibility matrix)
         facing = towards >= np.cos(np.radians(max_incidence_deg)) * dist
         return ((z > 0) & (np.abs(x) <= tan_h * z) & (np.abs(y) <= tan_v * z) & (dist <= reach)
                 & (dist > 0) & facing)
