@@ -27,6 +27,10 @@ SCENES = {
     "courtyard": ("courtyard.obj", []), "flush": ("flush_target.obj", ["flush_obstacle.obj"]),
 }
 
+# (camera preset, gsd m/px or None for the GSD at the thesis's d_opt of 7 m, security m)
+THESIS_SETTINGS = ("thesis80", None, 3.0)
+BIG_SETTINGS = ("phantom4pro", 0.005, 5.0)  # the 50k-triangle building
+
 
 def run_scene(name, scene, camera, gsd, security, repeats):
     seconds, route = timed(lambda: plan(scene, camera, gsd=gsd, security=security), repeats)
@@ -55,18 +59,19 @@ def main(argv=None):
     parser.add_argument("--quick", action="store_true")
     args = parser.parse_args(argv)
     repeats = 1 if args.quick else 3
-    camera = get_camera("thesis80")
-    gsd = float(camera.gsd_at(7.0))
+    camera = get_camera(THESIS_SETTINGS[0])
+    gsd = float(camera.gsd_at(7.0))  # THESIS_SETTINGS' gsd None
     names = ["square", "prism"] if args.quick else list(SCENES)
     rows = []
     for name in names:
         target, obstacles = SCENES[name]
         scene = load_scene(MESHES / target, [MESHES / o for o in obstacles])
-        rows.append(run_scene(name, scene, camera, gsd, 3.0, repeats))
+        rows.append(run_scene(name, scene, camera, gsd, THESIS_SETTINGS[2], repeats))
         print(f"  planned {name}", flush=True)
     if not args.quick:
         scene = scene_from_meshes([big_building(50_000)])
-        rows.append(run_scene("building50k", scene, get_camera("phantom4pro"), 0.005, 5.0, repeats))
+        big_camera, big_gsd, big_security = BIG_SETTINGS
+        rows.append(run_scene("building50k", scene, get_camera(big_camera), big_gsd, big_security, repeats))
     print(table(rows, [("scene", "scene", ""), ("faces", "faces", "d"), ("shots", "shots", "d"),
                        ("linking_shots", "linking", "d"), ("lp_bound", "LP bound", ".1f"),
                        ("shots_over_lp", "covering/LP", ".2f"), ("photo_sets", "photo sets", "d"),

@@ -21,7 +21,7 @@ import tempfile
 from pathlib import Path
 
 from common import MESHES, ROOT, big_building, table, write_json
-from plan_scenes import SCENES
+from plan_scenes import BIG_SETTINGS, SCENES, THESIS_SETTINGS
 
 # The commits before the work of each issue ("today's" planning time).
 BASELINES = {"c396e02": "issue 12, before the 0.25 m repair loop", "fed8e4b": "issue 11, before planning for SfM"}
@@ -33,7 +33,7 @@ from coverplan import get_camera, load_scene, plan
 spec = json.loads(sys.argv[2])
 scene = load_scene(spec["target"], spec["obstacles"])
 camera = get_camera(spec["camera"])
-gsd = spec["gsd"] if spec["gsd"] else float(camera.gsd_at(7.0))
+gsd = spec["gsd"] if spec["gsd"] else float(camera.gsd_at(7.0))  # plan_scenes' THESIS_SETTINGS
 times = []
 for _ in range(spec["repeats"]):
     t = time.perf_counter()
@@ -45,13 +45,17 @@ print(json.dumps({"times": times, "shots": len(route.shots)}))
 
 def scene_specs(tmp: Path, repeats: int, quick: bool) -> dict[str, dict]:
     names = ["square", "gabled"] if quick else list(SCENES)
-    specs = {n: {"target": str(MESHES / SCENES[n][0]), "obstacles": [str(MESHES / o) for o in SCENES[n][1]],
-                 "camera": "thesis80", "gsd": None, "security": 3.0, "repeats": repeats} for n in names}
+
+    def spec(target, obstacles, settings):
+        camera, gsd, security = settings
+        return {"target": str(target), "obstacles": [str(o) for o in obstacles], "camera": camera, "gsd": gsd,
+                "security": security, "repeats": repeats}
+
+    specs = {n: spec(MESHES / SCENES[n][0], [MESHES / o for o in SCENES[n][1]], THESIS_SETTINGS) for n in names}
     if not quick:
         path = tmp / "building50k.ply"
         big_building(50_000).export(path)
-        specs["building50k"] = {"target": str(path), "obstacles": [], "camera": "phantom4pro", "gsd": 0.005,
-                                "security": 5.0, "repeats": repeats}
+        specs["building50k"] = spec(path, [], BIG_SETTINGS)
     return specs
 
 
