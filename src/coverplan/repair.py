@@ -178,6 +178,8 @@ class GapCloser:
         # (shot candidate, fine sample, whether the view holds with CHECK_MARGIN to spare)
         self._views = [np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, bool)]
         self._checked = np.zeros(0, np.int64)
+        # The last check's shots and what they covered: a superset covers at least that.
+        self._last = (np.zeros(0, np.int64), np.zeros(n, dtype=bool))
         self.reach_known = np.zeros(n, dtype=bool)
         self.reachable = np.zeros(n, dtype=bool)
         self.reason = np.full(n, "", dtype=object)
@@ -202,11 +204,15 @@ class GapCloser:
         live = np.isin(who, chosen)
         n = len(self.fine)
         views = np.bincount(pt[live], minlength=n)
-        live &= firm
+        # Repair only adds shots, and more views never uncover a sample: judge only the rest.
+        last, was_covered = self._last
+        known = was_covered if np.isin(last, chosen).all() else np.zeros(n, dtype=bool)
+        live &= firm & ~known[pt]
         who, pt = who[live], pt[live]
         rays = view_rays(who, pt, self.p.cands.positions, self.fine.points)
-        covered = (np.bincount(pt, minlength=n) >= self.min_views) & has_pair_between(pt, rays, n, self.min_tri,
-                                                                                     self.max_pair)
+        covered = known | ((np.bincount(pt, minlength=n) >= self.min_views)
+                           & has_pair_between(pt, rays, n, self.min_tri, self.max_pair))
+        self._last = (chosen, covered)
         # Imaged by a chosen (safe) shot within range proves a sample reachable; probe the rest.
         self.reachable |= views > 0
         self.reach_known |= views > 0
@@ -242,7 +248,7 @@ class GapCloser:
         # planner's spacing finds the same views.
         seeds = (np.arange(len(sub)) if len(sub) <= 300 else
                  thin(sub.points, sub.normals, max(self.p.samples.spacing / 2.0, sub.spacing)))
-        extra = from_probes(self.p.scene, sub, seeds, limits).concat(
+        extra = from_probes(self.p.scene, sub, seeds, limits, per_sample=4).concat(
             along_normals(sub, limits, self.p.camera, self.distance))
         self.p.add_candidates(keep_safe(self.p.scene, extra, limits, self.margin))
         self._add(todo)
