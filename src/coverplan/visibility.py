@@ -11,6 +11,8 @@ its samples.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
@@ -20,16 +22,16 @@ from .orientation import camera_axes
 
 def imaging_pairs(positions, headings, pitches, camera, points, normals, rays, *,
                   max_range: float, max_incidence_deg: float, shrink: float = 0.0, ball_m: float = 0.0,
-                  offset: float = 1e-3, cameras_per_chunk: int = 8, progress=None):
+                  offset: float = 1e-3, cameras_per_chunk: int = 64, progress=None):
     """All (camera, point) pairs where the camera images the point, with their ranges.
 
     ``ball_m`` > 0 asks more: the frustum and range tests must hold for every point within
     ``ball_m`` of the point, and the incidence test with the angle such a move can add, so
     that a view found for one sample also holds for the surface around it.
 
-    Cameras are taken in spatially compact chunks; each chunk's candidate points come from one
-    KD-tree ball query, and the frustum, range and incidence tests run as dense matrix
-    products over (points x cameras) before the surviving pairs are ray cast.
+    Each camera's candidate points come from a KD-tree ball query around its frustum; the
+    frustum, range and incidence tests then run on the flat list of (camera, point) pairs,
+    cameras taken in spatially compact chunks, before the surviving pairs are ray cast.
     Returns ``(camera_index, point_index, range)`` arrays.
     """
     positions = np.asarray(positions, dtype=float).reshape(-1, 3)
@@ -49,25 +51,21 @@ def imaging_pairs(positions, headings, pitches, camera, points, normals, rays, *
     corner_cos = 1.0 / np.sqrt(1.0 + tan_h ** 2 + tan_v ** 2)
     ball = reach / (2.0 * corner_cos) if corner_cos >= 0.5 else reach
     centres = positions + forward * ball if corner_cos >= 0.5 else positions
+    # One ball per camera: a ball around a chunk of cameras held 7x the pairs (ring prism).
     order = _spatial_order(centres, ball)
     out_i, out_j, out_r = [], [], []
     for lo in range(0, len(order), cameras_per_chunk):
         cams = order[lo:lo + cameras_per_chunk]
-        middle = centres[cams].mean(axis=0)
-        radius = np.linalg.norm(centres[cams] - middle, axis=1).max() + ball
-        near = np.asarray(point_tree.query_ball_point(middle, radius * (1 + 1e-9)), dtype=np.int64)
-        if len(near) == 0:
-            continue
-        p, n = points[near], normals[near]
-        c = positions[cams]
-        x = p @ right[cams].T - np.einsum("ij,ij->i", c, right[cams])
-        y = p @ up[cams].T - np.einsum("ij,ij->i", c, up[cams])
-        z = p @ forward[cams].T - np.einsum("ij,ij->i", c, forward[cams])
+        near = point_tree.query_ball_point(centres[cams], ball * (1 + 1e-9))
+        counts = np.fromiter(map(len, near), dtype=np.int64, count=len(cams))
+        j = np.fromiter(itertools.chain.from_iterable(near), dtype=np.int64, count=int(counts.sum()))
+        i = np.repeat(cams, counts)
+        v = points[j] - positions[i]
+        x, y, z = (np.einsum("ij,ij->i", v, axis[i]) for axis in (right, up, forward))
         dist = np.sqrt(x * x + y * y + z * z)
-        towards = n @ c.T - np.einsum("ij,ij->i", p, n)[:, None]
+        towards = -np.einsum("ij,ij->i", v, normals[j])
         ok = in_view(x, y, z, dist, towards, tan_h, tan_v, reach, max_incidence_deg * keep, ball_m)
-        jj, kk = np.nonzero(ok)
-        i, j, d = cams[kk], near[jj], dist[jj, kk]
+        i, j, d = i[ok], j[ok], dist[ok]
         if len(i):
             blocked = rays.segments_blocked(points[j] + normals[j] * offset, positions[i])
             i, j, d = i[~blocked], j[~blocked], d[~blocked]
