@@ -12,7 +12,7 @@ import time
 import numpy as np
 
 from .camera import Camera, check_positive
-from .candidates import along_normals, facade_rings, from_probes, keep_safe, standoff
+from .candidates import along_normals, facade_rings, from_probes, keep_safe, standoff, under_overhangs
 from .errors import ParameterError, PlanningError
 from .flights import Stops, flight_table, split_flights, transit_headings, waypoint_times
 from .flighttime import FlightModel
@@ -214,7 +214,8 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
         reach = reachability(scene, samples, limits)
     with progress.stage("candidate viewpoints"):
         cands = facade_rings(scene, camera, limits, distance, spacing).concat(
-            along_normals(samples, limits, camera, distance))
+            along_normals(samples, limits, camera, distance)).concat(
+            under_overhangs(samples, limits, camera, margin))
         cands = keep_safe(scene, cands, limits, margin)
 
     problem = CoverProblem(scene, camera, limits, samples, cands)
@@ -267,6 +268,16 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
                                          before, match, 0.5 * d_opt)
             check = closer.check(chosen)
             history.append(check.coverage_pct)
+        fine_sharp = 0
+        if match is not None and match.sharp_views:
+            before = len(chosen)
+            chosen = closer.sharpen(chosen, match.sharp_views)
+            if len(chosen) > before:
+                vis, _rays = problem.matrices()
+                chosen = _link_new_shots(vis[:, :len(samples)], problem.cands.positions, samples.points, chosen,
+                                         before, match, 0.5 * d_opt)
+                fine_sharp = len(chosen) - before
+                check = closer.check(chosen)
     cands = problem.cands
     shots = cands.subset(chosen)
     with progress.stage("lattice and Dijkstra"):
@@ -321,9 +332,9 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     route.metrics = {
         "shots": int(route.shot.sum()),
         "selected_views": int(len(chosen)),
-        "sharp_view_shots": int(sharpening),
+        "sharp_view_shots": int(sharpening + fine_sharp),
         "linking_shots": int(max(len(selection.chosen) - covering - sharpening, 0)),
-        "repair_shots": int(max(len(chosen) - len(selection.chosen), 0)),
+        "repair_shots": int(max(len(chosen) - len(selection.chosen) - fine_sharp, 0)),
         "repair_rounds": len(history) - 1,
         "check_coverage_history_pct": history,
         "path_length_m": route.path_length,
