@@ -24,6 +24,7 @@ from shapely.ops import unary_union
 from .orientation import heading_pitch, view_direction
 from .reachability import (OK, ViewLimits, cone_directions, probe_positions, tangent_frames,
                            test_probes)
+from .surface import OPPOSED_TERRACE
 
 
 @dataclass
@@ -140,7 +141,7 @@ def under_overhangs(samples, limits: ViewLimits, camera, margin: float, n_azimut
     directions, to the floor or d_opt, and halfway there. With the gimbal's +30 deg that is
     an incidence of about 37 deg; ``along_normals`` and the probes left the edge strip of an
     overhang at 43-45 deg (ring prism)."""
-    down = np.flatnonzero(samples.normals[:, 2] <= -0.5)
+    down = np.flatnonzero(samples.kind == OPPOSED_TERRACE)
     if len(down) == 0:
         return Candidates.empty()
     # One seed per cell of a third of the frame at 0.7 d_opt: half that cell gave 2,800

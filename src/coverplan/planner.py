@@ -272,8 +272,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
         if match is not None and match.sharp_views:
             before = len(chosen)
             chosen = closer.sharpen(chosen, match.sharp_views)
-            if len(chosen) > before:
-                vis, _rays = problem.matrices()
+            if len(chosen) > before:  # sharpen leaves the problem as it was: vis still holds
                 chosen = _link_new_shots(vis[:, :len(samples)], problem.cands.positions, samples.points, chosen,
                                          before, match, 0.5 * d_opt)
                 fine_sharp = len(chosen) - before
