@@ -141,6 +141,7 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_tri_d
         chosen.append(int(j))
         if progress is not None:
             progress(1)
+    chosen += complete_pairs(vis, rays, np.array(chosen, dtype=np.int64), min_views, min_tri_deg, max_pair_deg)
     chosen_arr = prune_redundant(vis, rays, np.array(chosen, dtype=np.int64), min_views, min_tri_deg,
                                  max_pair_deg, fixed=len(fixed))
     views, satisfied = coverage_state(vis, rays, chosen_arr, min_views, min_tri_deg, max_pair_deg)
@@ -154,6 +155,55 @@ def coverage_state(vis: sp.csr_matrix, rays: np.ndarray, chosen, min_views: int,
     views = np.bincount(cols, minlength=vis.shape[1])
     paired = has_pair_between(cols, ray, vis.shape[1], min_tri_deg, max_pair_deg)
     return views, (views >= min_views) & paired
+
+
+def complete_pairs(vis: sp.csr_matrix, rays: np.ndarray, chosen, min_views: int, min_tri_deg: float,
+                   max_pair_deg: float | None = None) -> list[int]:
+    """Candidates to add so that every coverable sample is covered, for the samples whose
+    greedy gains cannot see it: when a sample's only pairs in the angle window are two
+    candidates not yet taken, neither alone gains anything and the greedy stops short.
+
+    Per such sample (there are few: 13 of 4,200 check samples in a wall seen only between
+    obstacles) the pair in the window that needs the fewest new shots, then views to make
+    up ``min_views``."""
+    n_cand, n_samp = vis.shape
+    _, satisfied = coverage_state(vis, rays, chosen, min_views, min_tri_deg, max_pair_deg)
+    open_ = np.flatnonzero(~satisfied & (np.bincount(vis.indices, minlength=n_samp) >= min_views))
+    if len(open_) == 0:
+        return []
+    cand, samp, ray = _rows(vis, rays, np.arange(n_cand))
+    keep = np.isin(samp, open_)
+    cand, samp, ray = cand[keep], samp[keep], ray[keep]
+    todo = np.flatnonzero(has_pair_between(samp, ray, n_samp, min_tri_deg, max_pair_deg))
+    if len(todo) == 0:
+        return []
+    keep = np.isin(samp, todo)
+    order = np.argsort(samp[keep], kind="stable")
+    cand, samp, ray = cand[keep][order], samp[keep][order], ray[keep][order]
+    bounds = np.searchsorted(samp, np.append(todo, n_samp))
+    taken = np.zeros(n_cand, dtype=bool)
+    taken[chosen] = True
+    c_lo = np.cos(np.radians(min_tri_deg))
+    c_hi = -1.0 if max_pair_deg is None else np.cos(np.radians(max_pair_deg))
+    added: list[int] = []
+    for lo, hi in zip(bounds[:-1], bounds[1:]):  # a few samples, each a small pair matrix
+        c, r = cand[lo:hi], ray[lo:hi]
+        cos = r @ r.T
+        ok = (cos <= c_lo + 1e-12) & (cos >= c_hi - 1e-12)
+        new = (~taken[c]).astype(int)
+        cost = np.where(ok, new[:, None] + new[None, :], 99)
+        a, b = np.unravel_index(np.argmin(cost), cost.shape)
+        if cost[a, b] > 0:
+            for k in (a, b):
+                if not taken[c[k]]:
+                    taken[c[k]] = True
+                    added.append(int(c[k]))
+        short = min_views - int(taken[c].sum())
+        if short > 0:
+            extra = c[~taken[c]][:short]
+            taken[extra] = True
+            added.extend(int(j) for j in extra)
+    return added
 
 
 def prune_redundant(vis, rays, chosen, min_views: int, min_tri_deg: float,
