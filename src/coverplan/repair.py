@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from .candidates import Candidates, along_normals, from_probes, keep_safe, thin
+from .candidates import Candidates, along_normals, around_views, from_probes, keep_safe, thin
 from .reachability import ViewLimits, reachability
 from .reconstructability import add_sharp_views, incidence_deg
 from .surface import OPPOSED_TERRACE, SurfaceSamples, check_spacing, sample_surface
@@ -42,6 +42,7 @@ PROBE = 2  # Candidates.source of reachability probes: judged without the margin
 # catches that strip; half of it cost 1.6x the planning time on the gabled house.
 CHECK_MARGIN = 0.01
 CHECK_BALL = 0.25
+MAX_AROUND = 2000  # known views a dense re-probe looks around (16 x 3 probes each)
 
 
 @dataclass
@@ -87,7 +88,7 @@ class CoverProblem:
         else:
             head = self.pairs_between(new, self.samples.subset(np.arange(self.ball_from)))
             c, p, r = self.pairs_between(new, self.samples.subset(np.arange(self.ball_from, len(self.samples))),
-                                         ball_m=self.ball_m)
+                                         probe_shrink=CHECK_MARGIN, ball_m=self.ball_m)
             c, p, r = _join(head, (c, p + self.ball_from, r))
         base = len(self.cands)
         self.cands = self.cands.concat(new)
@@ -185,6 +186,7 @@ class GapCloser:
         self.reachable = np.zeros(n, dtype=bool)
         self.reason = np.full(n, "", dtype=object)
         self.column = np.full(n, -1, dtype=np.int64)  # fine sample -> column in the problem
+        self.dense = np.zeros(n, dtype=bool)  # probed again, densely
 
     def check(self, chosen: np.ndarray) -> FineCheck:
         """Judge ``chosen`` (candidate indices) on the fine samples by the evaluator's rule, each
@@ -241,8 +243,11 @@ class GapCloser:
         """Add the reachable missed samples not yet in the problem, with candidates for them.
         Returns how many samples were added."""
         todo = np.flatnonzero(check.missed & check.reachable & (self.column < 0))
+        again = np.flatnonzero(check.missed & check.reachable & (self.column >= 0))
+        if len(again):
+            self._probe_again(again)
         if len(todo) == 0:
-            return 0
+            return len(again)
         sub = self.fine.subset(todo)
         limits = self.p.limits
         # Missed samples come in strips: beyond a few hundred, probing one per cell of half the
@@ -256,6 +261,36 @@ class GapCloser:
         self.p.add_candidates(keep_safe(self.p.scene, extra, limits, self.margin))
         self._add(todo)
         return len(todo)
+
+    def _probe_again(self, rows: np.ndarray) -> None:
+        """Samples still missed after a round of repair: the first time four times the probe
+        directions, every time views a few degrees around the views they already have."""
+        lim = self.p.limits
+        # The check counts views with CHECK_MARGIN of range to spare around the sample's ball:
+        # the farthest probe sits just inside that (the generic 0.97 of the range lies beyond it).
+        top = max(((1.0 - CHECK_MARGIN) * lim.d_opt - self.ball_m - 1e-3 - lim.security)
+                  / (lim.d_opt - lim.security), 0.0)
+        first = np.flatnonzero(~self.dense[rows])
+        if len(first):
+            self.dense[rows[first]] = True
+            sub = self.fine.subset(rows[first])
+            seeds = (np.arange(len(sub)) if len(sub) <= 300 else
+                     thin(sub.points, sub.normals, max(self.p.samples.spacing / 2.0, sub.spacing)))
+            extra = from_probes(self.p.scene, sub, seeds, lim, per_sample=8, n_directions=192,
+                                range_fractions=(0.35, 0.6, 0.8, top))
+            self.p.add_candidates(keep_safe(self.p.scene, extra, lim, self.margin))
+        sub = self.fine.subset(rows)
+        # Then a few degrees around every view these samples have: their safe views may fill a
+        # cone narrower than the probes' spacing.
+        cam, pt, _ = self.p.pairs
+        cols = self.column[rows]
+        seen = np.flatnonzero(np.isin(pt, cols))
+        if len(seen) > MAX_AROUND:
+            seen = seen[np.linspace(0, len(seen) - 1, MAX_AROUND).astype(np.int64)]
+        owner = np.searchsorted(cols, pt[seen])  # rows, hence cols, ascend
+        near = around_views(self.p.scene, sub, owner, self.p.cands.positions[cam[seen]], lim,
+                            range_fractions=(0.5, 0.75, top))
+        self.p.add_candidates(keep_safe(self.p.scene, near, lim, self.margin))
 
     def _add(self, todo: np.ndarray) -> None:
         self.column[todo] = len(self.p.samples) + np.arange(len(todo))
