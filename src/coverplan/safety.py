@@ -135,7 +135,8 @@ class ClearanceModel:
         points = np.asarray(points, dtype=float).reshape(-1, 3)
         if self._tree is None:
             return np.full(len(points), np.inf), np.full(len(points), -1)
-        d, i = self._tree.query(points, workers=-1, distance_upper_bound=limit)
+        # Threads pay off on big queries only: starting them cost more than most plans' queries.
+        d, i = self._tree.query(points, workers=-1 if len(points) > 20_000 else 1, distance_upper_bound=limit)
         found = np.isfinite(d)
         owner = np.full(len(points), -1, dtype=np.int64)
         owner[found] = self._tree_owner[i[found]]
