@@ -69,12 +69,18 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_tri_d
             pairs[open_pair] = in_window(dots).any(axis=1)
         return pairs
 
-    def gain(j: int) -> float:
-        s = indices[indptr[j]:indptr[j + 1]]
-        if len(s) == 0:
+    def gain(j: int) -> float:  # opens_pair inlined: the lazy greedy calls this thousands of times
+        lo, hi = indptr[j], indptr[j + 1]
+        if lo == hi:
             return 0.0
-        r = rays[indptr[j]:indptr[j + 1]]
-        return float(((count[s] < min_views).sum() + opens_pair(s, r).sum()) * (1.0 + x[j]))
+        s = indices[lo:hi]
+        seen = count[s]
+        g = np.count_nonzero(seen < min_views)
+        open_pair = (seen >= 1) & ~paired[s]
+        if open_pair.any():
+            dots = np.einsum("nkd,nd->nk", stored[s[open_pair]], rays[lo:hi][open_pair])
+            g += np.count_nonzero(in_window(dots).any(axis=1))
+        return float(g * (1.0 + x[j]))
 
     def all_gains(candidates: np.ndarray) -> np.ndarray:
         """gain() of many candidates at once (sparse products instead of a Python loop)."""
