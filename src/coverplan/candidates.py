@@ -180,14 +180,10 @@ def from_probes(scene, samples, needy, limits: ViewLimits, per_sample: int = 8,
                                        range_fractions)
     status, _ = test_probes(scene, samples.points, samples.normals, owner, pos, rays, limits)
     good = np.flatnonzero(status == OK)
-    # Keep a spread of directions per sample: every k-th working probe.
-    keep = []
-    for s in np.unique(owner[good]):
-        mine = good[owner[good] == s]
-        keep.append(mine[np.linspace(0, len(mine) - 1, min(per_sample, len(mine))).astype(int)])
-    if not keep:
+    # Keep a spread of directions per sample.
+    keep = good[spread_per_owner(owner[good], per_sample)]
+    if len(keep) == 0:
         return Candidates.empty()
-    keep = np.concatenate(keep)
     return Candidates.looking(pos[keep], -rays[keep], limits, source=2)
 
 
@@ -225,15 +221,22 @@ def around_views(scene, samples, owner, cameras, limits: ViewLimits, tilts_deg=(
 
 
 def spread_per_owner(owner: np.ndarray, k: int) -> np.ndarray:
-    """Indices keeping at most ``k`` entries per owner, evenly spread over each owner's run
-    (``owner`` in any order; each owner's entries keep their order)."""
+    """Indices keeping at most ``k`` entries per owner, evenly spread over each owner's
+    entries (in their order): per owner ``np.linspace(0, n - 1, min(k, n)).astype(int)``,
+    owners ascending."""
     order = np.argsort(owner, kind="stable")
     sorted_owner = owner[order]
-    start = np.searchsorted(sorted_owner, sorted_owner, side="left")
-    size = np.searchsorted(sorted_owner, sorted_owner, side="right") - start
-    rank = np.arange(len(owner)) - start
-    step = np.maximum(np.ceil(size / k), 1).astype(np.int64)
-    return np.sort(order[rank % step == 0])
+    first = np.flatnonzero(np.r_[True, sorted_owner[1:] != sorted_owner[:-1]]) if len(owner) else np.zeros(0, int)
+    n = np.diff(np.r_[first, len(owner)])
+    take = np.minimum(n, k)
+    group = np.repeat(np.arange(len(first)), take)
+    i = np.arange(int(take.sum())) - np.repeat(np.cumsum(take) - take, take)
+    # linspace's arithmetic exactly: i * ((n - 1) / (take - 1)), the last one n - 1 (one: the first).
+    div = np.maximum(take[group] - 1, 1)
+    at = (i * ((n[group] - 1) / div)).astype(np.int64)
+    last = (i == take[group] - 1) & (take[group] > 1)
+    at[last] = n[group][last] - 1
+    return order[first[group] + at]
 
 
 def keep_safe(scene, candidates: Candidates, limits: ViewLimits, margin: float) -> Candidates:
