@@ -96,7 +96,7 @@ def test_coverage_rechecked_by_brute_force(planned, name):
 
 def test_small_obstacle_between_slices_leaves_no_gap(planned):
     """Thesis Figure 4.11: the wall behind the small floating obstacle is covered."""
-    scene, route, ev = planned["fig411"]
+    _, _, ev = planned["fig411"]
     pts = ev.samples.points
     behind = (np.abs(pts[:, 1] - 18.5) < 1e-6) & (np.abs(pts[:, 0] - 25) < 2) & (np.abs(pts[:, 2] - 10) < 2)
     assert behind.sum() > 5

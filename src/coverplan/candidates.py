@@ -262,7 +262,7 @@ def _section_union(scene, z: float):
         if section is None:
             continue
         try:
-            planar, to_3d = section.to_2D(to_2D=np.eye(4))
+            planar, _ = section.to_2D(to_2D=np.eye(4))
             polys.extend(planar.polygons_full)
         except Exception:  # open or self-touching sections: fall back to hulls of the paths
             for path in section.discrete:

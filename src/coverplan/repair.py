@@ -18,10 +18,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from .candidates import Candidates, along_normals, around_views, from_probes, keep_safe, thin
+from .orientation import camera_axes
 from .reachability import ViewLimits, reachability
 from .reconstructability import add_sharp_views, incidence_deg
 from .surface import OPPOSED_TERRACE, SurfaceSamples, check_spacing, sample_surface
-from .orientation import camera_axes
 from .visibility import has_pair_between, imaging_pairs, in_view, view_rays, visibility_matrix
 
 PLANNER_CHECK_SEED = 104_729  # the evaluator samples with yet another seed

@@ -13,6 +13,7 @@ On the thesis prism the LP guidance takes the greedy result from 1.33x to 1.16x 
 from __future__ import annotations
 
 import heapq
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -157,7 +158,7 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_tri_d
 def coverage_state(vis: sp.csr_matrix, rays: np.ndarray, chosen, min_views: int, min_tri_deg: float,
                    max_pair_deg: float | None = None):
     """Views per sample and whether each sample is covered by the ``chosen`` candidates."""
-    rows, cols, ray = _rows(vis, rays, chosen)
+    _, cols, ray = _rows(vis, rays, chosen)
     views = np.bincount(cols, minlength=vis.shape[1])
     paired = has_pair_between(cols, ray, vis.shape[1], min_tri_deg, max_pair_deg)
     return views, (views >= min_views) & paired
@@ -192,7 +193,7 @@ def complete_pairs(vis: sp.csr_matrix, rays: np.ndarray, chosen, min_views: int,
     c_lo = np.cos(np.radians(min_tri_deg))
     c_hi = -1.0 if max_pair_deg is None else np.cos(np.radians(max_pair_deg))
     added: list[int] = []
-    for lo, hi in zip(bounds[:-1], bounds[1:]):  # a few samples, each a small pair matrix
+    for lo, hi in itertools.pairwise(bounds):  # a few samples, each a small pair matrix
         c, r = cand[lo:hi], ray[lo:hi]
         cos = r @ r.T
         ok = (cos <= c_lo + 1e-12) & (cos >= c_hi - 1e-12)
