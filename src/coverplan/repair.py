@@ -287,7 +287,8 @@ class GapCloser:
         seen = np.flatnonzero(np.isin(pt, cols))
         if len(seen) > MAX_AROUND:
             seen = seen[np.linspace(0, len(seen) - 1, MAX_AROUND).astype(np.int64)]
-        owner = np.searchsorted(cols, pt[seen])  # rows, hence cols, ascend
+        by_col = np.argsort(cols)  # columns come in the order samples joined, not by row
+        owner = by_col[np.searchsorted(cols[by_col], pt[seen])]
         near = around_views(self.p.scene, sub, owner, self.p.cands.positions[cam[seen]], lim,
                             range_fractions=(0.5, 0.75, top))
         self.p.add_candidates(keep_safe(self.p.scene, near, lim, self.margin))
