@@ -240,8 +240,8 @@ class GapCloser:
                        keep * self.p.limits.d_opt, keep * self.p.limits.max_incidence_deg, self.ball_m)
 
     def extend(self, check: FineCheck) -> int:
-        """Add the reachable missed samples not yet in the problem, with candidates for them.
-        Returns how many samples were added."""
+        """Add the reachable missed samples not yet in the problem, with candidates for them,
+        and probe again for those already in it. Returns how many samples got candidates."""
         todo = np.flatnonzero(check.missed & check.reachable & (self.column < 0))
         again = np.flatnonzero(check.missed & check.reachable & (self.column >= 0))
         if len(again):
@@ -250,17 +250,21 @@ class GapCloser:
             return len(again)
         sub = self.fine.subset(todo)
         limits = self.p.limits
-        # Missed samples come in strips: beyond a few hundred, probing one per cell of half the
-        # planner's spacing finds the same views.
-        seeds = (np.arange(len(sub)) if len(sub) <= 300 else
-                 thin(sub.points, sub.normals, max(self.p.samples.spacing / 2.0, sub.spacing)))
+        seeds = self._seeds(sub)
         # Neighbouring seeds' probes nearly coincide: 8 probes of 96 directions per seed doubled
         # the gabled house's candidates and made relinking the slowest step, for the same plans.
         extra = from_probes(self.p.scene, sub, seeds, limits, per_sample=4, n_directions=48).concat(
             along_normals(sub, limits, self.p.camera, self.distance))
         self.p.add_candidates(keep_safe(self.p.scene, extra, limits, self.margin))
         self._add(todo)
-        return len(todo)
+        return len(todo) + len(again)
+
+    def _seeds(self, sub: SurfaceSamples) -> np.ndarray:
+        """Which of ``sub`` to probe from. Missed samples come in strips: beyond a few hundred,
+        probing one per cell of half the planner's spacing finds the same views."""
+        if len(sub) <= 300:
+            return np.arange(len(sub))
+        return thin(sub.points, sub.normals, max(self.p.samples.spacing / 2.0, sub.spacing))
 
     def _probe_again(self, rows: np.ndarray) -> None:
         """Samples still missed after a round of repair: the first time four times the probe
@@ -274,9 +278,7 @@ class GapCloser:
         if len(first):
             self.dense[rows[first]] = True
             sub = self.fine.subset(rows[first])
-            seeds = (np.arange(len(sub)) if len(sub) <= 300 else
-                     thin(sub.points, sub.normals, max(self.p.samples.spacing / 2.0, sub.spacing)))
-            extra = from_probes(self.p.scene, sub, seeds, lim, per_sample=8, n_directions=192,
+            extra = from_probes(self.p.scene, sub, self._seeds(sub), lim, per_sample=8, n_directions=192,
                                 range_fractions=(0.35, 0.6, 0.8, top))
             self.p.add_candidates(keep_safe(self.p.scene, extra, lim, self.margin))
         sub = self.fine.subset(rows)

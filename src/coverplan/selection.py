@@ -178,9 +178,9 @@ def complete_pairs(vis: sp.csr_matrix, rays: np.ndarray, chosen, min_views: int,
     open_ = np.flatnonzero(~satisfied & (np.bincount(vis.indices, minlength=n_samp) >= min_views))
     if len(open_) == 0:
         return []
-    cand, samp, ray = _rows(vis, rays, np.arange(n_cand))
-    keep = np.isin(samp, open_)
-    cand, samp, ray = cand[keep], samp[keep], ray[keep]
+    keep = np.isin(vis.indices, open_)  # every entry of vis, for the open samples only
+    cand = np.repeat(np.arange(n_cand), np.diff(vis.indptr))[keep]
+    samp, ray = vis.indices[keep], rays[keep]
     todo = np.flatnonzero(has_pair_between(samp, ray, n_samp, min_tri_deg, max_pair_deg))
     if len(todo) == 0:
         return []
