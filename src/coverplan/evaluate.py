@@ -17,7 +17,7 @@ from .route import Route
 from .surface import CLASS_NAMES, SurfaceSamples, check_spacing, sample_surface
 from .reconstructability import (SHARP_INCIDENCE_DEG, MatchRule, best_incidence, graph_summary, incidence_deg,
                                  shot_links)
-from .visibility import has_pair_between, imaging_pairs, view_rays, widest_pair_angle
+from .visibility import imaging_pairs, pair_stats, view_rays
 
 ORIENTATION_TOLERANCE_DEG = 0.5
 ALTITUDE_TOLERANCE_M = 1e-3  # route files keep 0.1 mm; a floor that follows terrain is rarely a round number
@@ -105,11 +105,11 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
     n = len(samples)
     views = np.bincount(pt, minlength=n)
     rays = view_rays(cam, pt, route.positions[shots], samples.points)
-    widest = widest_pair_angle(pt, rays, n)
     min_views = int(route.param("min_views"))
     min_tri = float(route.param("min_triangulation_deg"))
     max_pair = route.params.get("max_pair_deg")
-    covered = (views >= min_views) & has_pair_between(pt, rays, n, min_tri, max_pair)
+    widest, paired = pair_stats(pt, rays, n, min_tri, max_pair)
+    covered = (views >= min_views) & paired
 
     # Safety along the whole polyline: exact FCL distances per segment, inside tests per waypoint.
     positions = route.positions

@@ -26,7 +26,7 @@ from .repair import MAX_ROUNDS, TARGET_PCT, CoverProblem, GapCloser
 from .selection import select_views
 from .surface import default_spacing, sample_surface
 from .tour import solve_tour
-from .visibility import has_pair_between, view_rays, widest_pair_angle
+from .visibility import pair_stats, view_rays
 
 MAX_LATTICE_NODES = 150_000
 
@@ -377,11 +377,9 @@ def _short_samples(pairs, positions, samples, min_views, min_tri, max_pair=None)
     cam, pt, _ = pairs
     views = np.bincount(pt, minlength=len(samples))
     rays = view_rays(cam, pt, positions, samples.points)
-    widest = widest_pair_angle(pt, rays, len(samples))
+    widest, paired = pair_stats(pt, rays, len(samples), min_tri, max_pair)
     short = (views < min_views + 1) | (widest < min_tri * 2)
-    if max_pair is not None:
-        short |= ~has_pair_between(pt, rays, len(samples), min_tri, max_pair)
-    return short
+    return short | ~paired if max_pair is not None else short
 
 
 def _fly(fg, order, pred, direct, scene, limits, margin) -> list[tuple[np.ndarray, int]]:

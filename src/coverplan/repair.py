@@ -16,13 +16,26 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
+from scipy.spatial import cKDTree
 
-from .candidates import Candidates, along_normals, around_views, from_probes, keep_safe, thin
-from .orientation import camera_axes
+from .candidates import (
+    Candidates,
+    along_normals,
+    around_views,
+    from_probes,
+    keep_safe,
+    thin,
+)
 from .reachability import ViewLimits, reachability
 from .reconstructability import add_sharp_views, incidence_deg
 from .surface import OPPOSED_TERRACE, SurfaceSamples, check_spacing, sample_surface
-from .visibility import has_pair_between, imaging_pairs, in_view, view_rays, visibility_matrix
+from .visibility import (
+    has_pair_between,
+    imaging_pairs,
+    imaging_pairs_firm,
+    view_rays,
+    visibility_matrix,
+)
 
 PLANNER_CHECK_SEED = 104_729  # the evaluator samples with yet another seed
 # Repeat while anything is missed that more shots could still image (at most MAX_ROUNDS):
@@ -176,6 +189,7 @@ class GapCloser:
         self.fine = check_samples(problem.scene, planner_check_spacing(problem.scene, problem.samples.spacing),
                                   surface_classes)
         self.ball_m = CHECK_BALL * self.fine.spacing
+        self._tree = cKDTree(self.fine.points)
         n = len(self.fine)
         # (shot candidate, fine sample, whether the view holds with CHECK_MARGIN to spare)
         self._views = [np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, bool)]
@@ -195,11 +209,13 @@ class GapCloser:
         new = np.setdiff1d(chosen, self._checked)
         if len(new):
             c = self.p.cands.subset(new)
-            cam, pt, rng = imaging_pairs(c.positions, c.heading_deg, c.pitch_deg, self.p.camera, self.fine.points,
-                                         self.fine.normals, self.p.scene.rays, max_range=self.p.limits.d_opt,
-                                         max_incidence_deg=self.p.limits.max_incidence_deg,
-                                         offset=self.p.scene.epsilon * 4)
-            firm = self._with_margin(c, cam, pt, rng)
+            # firm: the view holds with CHECK_MARGIN off the frustum, range and incidence, for
+            # all points within ``ball_m`` of the sample
+            cam, pt, _, firm = imaging_pairs_firm(
+                c.positions, c.heading_deg, c.pitch_deg, self.p.camera, self.fine.points, self.fine.normals,
+                self.p.scene.rays, max_range=self.p.limits.d_opt, max_incidence_deg=self.p.limits.max_incidence_deg,
+                firm_shrink=CHECK_MARGIN, firm_ball_m=self.ball_m, offset=self.p.scene.epsilon * 4,
+                point_tree=self._tree)
             self._views = [np.concatenate([self._views[0], new[cam]]), np.concatenate([self._views[1], pt]),
                            np.concatenate([self._views[2], firm])]
             self._checked = np.union1d(self._checked, new)
@@ -227,17 +243,6 @@ class GapCloser:
             self.reach_known[unknown] = True
         self.reason[self.reachable] = ""  # a shot added later may image what the probes missed
         return FineCheck(self.fine, covered, self.reachable.copy(), self.reason.copy())
-
-    def _with_margin(self, c: Candidates, cam, pt, rng) -> np.ndarray:
-        """Which imaging pairs hold with CHECK_MARGIN off the frustum, range and incidence, for
-        all points within ``ball_m`` of the sample."""
-        keep = 1.0 - CHECK_MARGIN
-        right, up, forward = camera_axes(c.heading_deg[cam], c.pitch_deg[cam])
-        v = self.fine.points[pt] - c.positions[cam]
-        x, y, z = (np.einsum("ij,ij->i", v, a) for a in (right, up, forward))
-        towards = -np.einsum("ij,ij->i", v, self.fine.normals[pt])
-        return in_view(x, y, z, rng, towards, keep * self.p.camera.tan_half_hfov, keep * self.p.camera.tan_half_vfov,
-                       keep * self.p.limits.d_opt, keep * self.p.limits.max_incidence_deg, self.ball_m)
 
     def extend(self, check: FineCheck) -> int:
         """Add the reachable missed samples not yet in the problem, with candidates for them,

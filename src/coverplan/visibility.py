@@ -22,31 +22,63 @@ from .orientation import camera_axes
 
 def imaging_pairs(positions, headings, pitches, camera, points, normals, rays, *,
                   max_range: float, max_incidence_deg: float, shrink: float = 0.0, ball_m: float = 0.0,
-                  offset: float = 1e-3, cameras_per_chunk: int = 64, progress=None):
+                  offset: float = 1e-3, cameras_per_chunk: int = 64, progress=None, point_tree=None):
     """All (camera, point) pairs where the camera images the point, with their ranges.
 
     ``ball_m`` > 0 asks more: the frustum and range tests must hold for every point within
     ``ball_m`` of the point, and the incidence test with the angle such a move can add, so
     that a view found for one sample also holds for the surface around it.
 
-    Each camera's candidate points come from a KD-tree ball query around its frustum; the
-    frustum, range and incidence tests then run on the flat list of (camera, point) pairs,
-    cameras taken in spatially compact chunks, before the surviving pairs are ray cast.
+    Each camera's candidate points come from a KD-tree ball query around its frustum
+    (``point_tree``, a cKDTree of ``points``, spares building it again); the frustum, range
+    and incidence tests then run on the flat list of (camera, point) pairs, cameras taken in
+    spatially compact chunks, before the surviving pairs are ray cast.
     Returns ``(camera_index, point_index, range)`` arrays.
     """
+    chunks = [c[:3] for c in _imaged_chunks(positions, headings, pitches, camera, points, normals, rays,
+                                            max_range=max_range, max_incidence_deg=max_incidence_deg, shrink=shrink,
+                                            ball_m=ball_m, offset=offset, cameras_per_chunk=cameras_per_chunk,
+                                            progress=progress, point_tree=point_tree)]
+    if not chunks:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
+    return tuple(np.concatenate(a) for a in zip(*chunks))
+
+
+def imaging_pairs_firm(positions, headings, pitches, camera, points, normals, rays, *,
+                       max_range: float, max_incidence_deg: float, firm_shrink: float, firm_ball_m: float,
+                       offset: float = 1e-3, point_tree=None):
+    """``imaging_pairs`` (no shrink) plus, per pair, whether the view also holds with
+    ``firm_shrink`` off the frustum, range and incidence for all points within ``firm_ball_m``:
+    ``(camera_index, point_index, range, firm)``."""
+    keep = 1.0 - firm_shrink
+    tan_h, tan_v = camera.tan_half_hfov * keep, camera.tan_half_vfov * keep
+    out = []
+    for i, j, d, x, y, z, towards in _imaged_chunks(
+            positions, headings, pitches, camera, points, normals, rays, max_range=max_range,
+            max_incidence_deg=max_incidence_deg, shrink=0.0, ball_m=0.0, offset=offset, point_tree=point_tree):
+        firm = in_view(x, y, z, d, towards, tan_h, tan_v, keep * max_range, keep * max_incidence_deg, firm_ball_m)
+        out.append((i, j, d, firm))
+    if not out:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0), np.zeros(0, bool)
+    return tuple(np.concatenate(a) for a in zip(*out))
+
+
+def _imaged_chunks(positions, headings, pitches, camera, points, normals, rays, *, max_range, max_incidence_deg,
+                   shrink, ball_m, offset, cameras_per_chunk: int = 64, progress=None, point_tree=None):
+    """Per chunk of cameras, the imaged pairs: camera and point indices, range, the point's
+    camera-frame x, y, z and normal . (camera - point)."""
     positions = np.asarray(positions, dtype=float).reshape(-1, 3)
     points = np.asarray(points, dtype=float).reshape(-1, 3)
     normals = np.asarray(normals, dtype=float).reshape(-1, 3)
+    if len(positions) == 0 or len(points) == 0:
+        return
     right, up, forward = camera_axes(headings, pitches)
     right, up, forward = (np.atleast_2d(a) for a in (right, up, forward))
     frames = np.stack([right, up, forward], axis=2)  # v @ frames[c]: v in camera c's (x, y, z)
     keep = 1.0 - shrink
     tan_h, tan_v = camera.tan_half_hfov * keep, camera.tan_half_vfov * keep
     reach = max_range * keep
-    empty = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
-    if len(positions) == 0 or len(points) == 0:
-        return empty
-    point_tree = cKDTree(points)
+    point_tree = cKDTree(points) if point_tree is None else point_tree
     # The smallest ball around a frustum's part within range passes through the camera and
     # the rim of the spherical cap whose half-angle is the image corner's angle off the axis.
     corner_cos = 1.0 / np.sqrt(1.0 + tan_h ** 2 + tan_v ** 2)
@@ -54,7 +86,6 @@ def imaging_pairs(positions, headings, pitches, camera, points, normals, rays, *
     centres = positions + forward * ball if corner_cos >= 0.5 else positions
     # One ball per camera: a ball around a chunk of cameras held 7x the pairs (ring prism).
     order = _spatial_order(centres, ball)
-    out_i, out_j, out_r = [], [], []
     for lo in range(0, len(order), cameras_per_chunk):
         cams = order[lo:lo + cameras_per_chunk]
         near = point_tree.query_ball_point(centres[cams], ball * (1 + 1e-9), return_sorted=False)
@@ -66,25 +97,20 @@ def imaging_pairs(positions, headings, pitches, camera, points, normals, rays, *
         v = points[j]
         local = np.empty_like(v)
         ends = np.cumsum(counts)
-        for c, s, e in zip(cams, ends - counts, ends):
+        for c, s, e in zip(cams[counts > 0], (ends - counts)[counts > 0], ends[counts > 0]):
             v[s:e] -= positions[c]
             np.matmul(v[s:e], frames[c], out=local[s:e])
         x, y, z = local[:, 0], local[:, 1], local[:, 2]
         dist = np.sqrt(x * x + y * y + z * z)
         towards = -np.einsum("ij,ij->i", v, normals[j])
-        ok = in_view(x, y, z, dist, towards, tan_h, tan_v, reach, max_incidence_deg * keep, ball_m)
-        i, j, d = i[ok], j[ok], dist[ok]
-        if len(i):
-            blocked = rays.segments_blocked(points[j] + normals[j] * offset, positions[i])
-            i, j, d = i[~blocked], j[~blocked], d[~blocked]
-        out_i.append(i)
-        out_j.append(j)
-        out_r.append(d)
+        k = np.flatnonzero(in_view(x, y, z, dist, towards, tan_h, tan_v, reach, max_incidence_deg * keep, ball_m))
+        towards = towards[k]
+        if len(k):
+            clear = ~rays.segments_blocked(points[j[k]] + normals[j[k]] * offset, positions[i[k]])
+            k, towards = k[clear], towards[clear]
+        yield i[k], j[k], dist[k], x[k], y[k], z[k], towards
         if progress is not None:
             progress(len(cams))
-    if not out_i:
-        return empty
-    return np.concatenate(out_i), np.concatenate(out_j), np.concatenate(out_r)
 
 
 def in_view(x, y, z, dist, towards, tan_h: float, tan_v: float, reach: float, max_incidence_deg: float,
@@ -156,6 +182,20 @@ def widest_pair_angle(point_index, rays, n_points: int, max_block: int = 4_000_0
     for block, cos in _pair_cosines(point_index, rays, n_points, max_block):
         widest[block] = np.degrees(np.arccos(np.clip(cos.min(axis=(1, 2)), -1.0, 1.0)))
     return widest
+
+
+def pair_stats(point_index, rays, n_points: int, lo_deg: float, hi_deg: float | None) -> tuple[np.ndarray, np.ndarray]:
+    """``widest_pair_angle`` and ``has_pair_between`` in one pass over the pair cosines."""
+    if hi_deg is None:
+        widest = widest_pair_angle(point_index, rays, n_points)
+        return widest, widest >= lo_deg
+    widest = np.zeros(n_points)
+    ok = np.zeros(n_points, dtype=bool)
+    c_lo, c_hi = np.cos(np.radians(lo_deg)), np.cos(np.radians(hi_deg))
+    for block, cos in _pair_cosines(point_index, rays, n_points):
+        widest[block] = np.degrees(np.arccos(np.clip(cos.min(axis=(1, 2)), -1.0, 1.0)))
+        ok[block] = ((cos <= c_lo + 1e-12) & (cos >= c_hi - 1e-12)).any(axis=(1, 2))
+    return widest, ok
 
 
 def has_pair_between(point_index, rays, n_points: int, lo_deg: float, hi_deg: float | None) -> np.ndarray:
