@@ -24,7 +24,15 @@ def true_distance(meshes, pts, chunk=2000):
     return d
 
 
-def test_point_queries_agree_with_trimesh():
+@pytest.fixture(params=["fcl", "vectorised"])
+def settle_with(request, monkeypatch):
+    """Unsure cases settled by one FCL query each, or by triangle_distance's exact distances."""
+    from coverplan import safety
+    monkeypatch.setattr(safety, "VECTORISED_UP_TO_TRIANGLES", 10 ** 6 if request.param == "vectorised" else 0)
+    return request.param
+
+
+def test_point_queries_agree_with_trimesh(settle_with):
     meshes = scene_meshes()
     model = ClearanceModel(meshes, rays=RayCaster(meshes), cover_edge=1.0)
     pts = np.random.default_rng(0).uniform([-6, -6, 0], [22, 24, 16], size=(3000, 3))
@@ -39,7 +47,7 @@ def test_point_queries_agree_with_trimesh():
         np.testing.assert_array_equal(model.points_clear(pts, radius), truth >= radius)
 
 
-def test_segment_queries_see_thin_obstacles_between_endpoints():
+def test_segment_queries_see_thin_obstacles_between_endpoints(settle_with):
     meshes = scene_meshes()
     model = ClearanceModel(meshes, rays=RayCaster(meshes), cover_edge=1.0)
     rng = np.random.default_rng(1)

@@ -120,9 +120,7 @@ class CoverProblem:
     def matrices(self) -> tuple[sp.csr_matrix, np.ndarray]:
         """The visibility matrix and, in its data order, the unit rays sample -> camera."""
         cam, pt, _ = self.pairs
-        vis = visibility_matrix(len(self.cands), len(self.samples), self.pairs)
-        order = np.lexsort((pt, cam))
-        vis.sort_indices()
+        vis, order = visibility_matrix(len(self.cands), len(self.samples), self.pairs)
         return vis, view_rays(cam[order], pt[order], self.cands.positions, self.samples.points)
 
 

@@ -16,6 +16,8 @@ import fcl
 import numpy as np
 from scipy.spatial import cKDTree
 
+from .triangle_distance import segments_near_triangles
+
 
 def _bvh(vertices, faces) -> fcl.CollisionObject:
     model = fcl.BVHModel()
@@ -83,6 +85,10 @@ def rotations_z_to(directions) -> np.ndarray:
 
 # From this many triangles, segment checks halve segments on KD bounds before asking FCL.
 HALVING_FROM_TRIANGLES = 100_000
+# Up to this many triangles the unsure cases are settled by vectorised exact distances
+# (triangle_distance) instead of one FCL query each: 1.5x faster at 92 triangles, even at
+# about 128, and 7x slower at 2,048, where testing every triangle's box costs most.
+VECTORISED_UP_TO_TRIANGLES = 100
 
 
 class ClearanceModel:
@@ -117,6 +123,8 @@ class ClearanceModel:
         self._tree_owner = np.concatenate(dense_owner) if dense_owner else np.zeros(0, np.int64)
         self._bvh_all = None
         self._distance_request = fcl.DistanceRequest()
+        self._vectorised = 0 < len(self._faces) <= VECTORISED_UP_TO_TRIANGLES
+        self._triangles = self._vertices[self._faces] if self._vectorised else None
 
     @property
     def _all(self):
@@ -155,7 +163,9 @@ class ClearanceModel:
         upper, _ = self.kd_distance(points, radius + self.cover_radius * 1.01 + 1e-9)
         ok = upper - self.cover_radius >= radius
         unsure = np.flatnonzero(~ok & (upper >= radius))
-        if len(unsure) and self._all is not None:
+        if len(unsure) and self._vectorised:
+            ok[unsure] = ~segments_near_triangles(points[unsure], points[unsure], self._triangles, radius)
+        elif len(unsure) and self._all is not None:
             ball = fcl.CollisionObject(fcl.Sphere(float(radius)), fcl.Transform())
             request = fcl.CollisionRequest()
             for k in unsure:
@@ -186,7 +196,9 @@ class ClearanceModel:
         c2 = self.lower_bound(ends, limit) if lower_end is None else lower_end
         ok = (c1 + c2 - length) / 2.0 >= radius
         todo = np.flatnonzero(~ok)
-        if len(todo) and len(self._faces) < HALVING_FROM_TRIANGLES:
+        if len(todo) and self._vectorised:
+            ok[todo] = ~segments_near_triangles(starts[todo], ends[todo], self._triangles, radius)
+        elif len(todo) and len(self._faces) < HALVING_FROM_TRIANGLES:
             request = fcl.CollisionRequest()
             for k, obj in zip(todo, self._capsules(starts[todo], ends[todo], radius)):
                 ok[k] = not fcl.collide(obj, self._all, request, fcl.CollisionResult())
