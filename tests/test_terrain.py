@@ -310,3 +310,46 @@ def test_exports_count_heights_from_the_ground_under_the_start(tmp_path):
     np.testing.assert_allclose(alt, source[1:, 2] - takeoff, atol=0.01)
     # Downhill of the start the relative heights go below zero while staying 3 m above the ground.
     assert alt.min() < 0 and (source[:, 2] - ground(source[:, 0], source[:, 1])).min() >= SECURITY - 1e-3
+
+
+def test_report_draws_the_ground_under_its_frame(tmp_path):
+    """The HTML report's 3D view shows the terrain: the DTM's heights, cut to the picture's
+    frame (not the whole raster), thinned to at most MAX_TERRAIN_CELLS cells, with a layer
+    switch; the page renders without errors."""
+    import base64
+    import time
+
+    from test_report import chromium
+
+    from coverplan import evaluate
+    from coverplan.report import write_html_report
+    from coverplan.report.frame import focus_bounds
+    from coverplan.report.html import MAX_TERRAIN_CELLS, report_data
+
+    dtm, house, _out, route = plan_site(tmp_path, slope)
+    scene = load_scene(house, terrain=dtm)
+    ev = evaluate(route, scene)
+    grounds = [m for m in report_data(route, scene, ev)["meshes"] if m["role"] == "terrain"]
+    assert len(grounds) == 1
+    v = np.frombuffer(base64.b64decode(grounds[0]["positions"]), dtype=np.float32).reshape(-1, 3)
+    faces = np.frombuffer(base64.b64decode(grounds[0]["indices"]), dtype=np.uint32).reshape(-1, 3)
+    np.testing.assert_allclose(v[:, 2], slope(v[:, 0], v[:, 1]), atol=1e-3)
+    lo, hi = focus_bounds(route, scene)
+    assert (v[:, :2].min(axis=0) <= lo[:2]).all() and (v[:, :2].max(axis=0) >= hi[:2]).all()
+    assert np.ptp(v[:, 0]) < 2 * HALF - 10  # cut to the frame, not the 120 m raster
+    assert 0 < len(faces) <= 2.2 * MAX_TERRAIN_CELLS and faces.max() < len(v)
+
+    page = write_html_report(route, scene, tmp_path / "site.html", evaluation=ev)
+    assert "data-layer=terrain" in page.read_text()
+    browser = chromium()
+    try:
+        browser.get(page.as_uri())
+        for _ in range(200):
+            if browser.execute_script("return window.reportReady === true"):
+                break
+            time.sleep(0.05)
+        assert browser.execute_script("return window.reportReady === true"), "viewer never finished"
+        browser.execute_script("document.querySelector('input[data-layer=terrain]').click();")
+        assert not [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
+    finally:
+        browser.quit()

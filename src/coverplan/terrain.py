@@ -98,14 +98,28 @@ class Terrain:
     def mesh(self) -> trimesh.Trimesh:
         """The ground surface, facing up, over the grid."""
         ny, nx = self.shape
-        xs = self.x0 + np.arange(nx) * self.dx
-        ys = self.y0 + np.arange(ny) * self.dy
-        gx, gy = np.meshgrid(xs, ys)
-        vertices = np.column_stack([gx.ravel(), gy.ravel(), self.heights.ravel()])
-        idx = np.arange(nx * ny).reshape(ny, nx)
+        return self._mesh_through(np.arange(nx), np.arange(ny))
+
+    def _mesh_through(self, cols, rows) -> trimesh.Trimesh:
+        """Two triangles per cell of the grid through the given node columns and rows."""
+        gx, gy = np.meshgrid(self.x0 + cols * self.dx, self.y0 + rows * self.dy)
+        vertices = np.column_stack([gx.ravel(), gy.ravel(), self.heights[np.ix_(rows, cols)].ravel()])
+        idx = np.arange(len(rows) * len(cols)).reshape(len(rows), len(cols))
         a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
         faces = np.vstack([np.column_stack([a, b, c]), np.column_stack([b, d, c])])
         return trimesh.Trimesh(vertices, faces, process=False)
+
+    def mesh_within(self, lo_xy, hi_xy, max_cells: int = 40_000) -> trimesh.Trimesh:
+        """The ground over the box ``lo_xy``-``hi_xy`` (and one node beyond) through every k-th
+        grid node, k such that at most about ``max_cells`` cells remain: for pictures."""
+        ny, nx = self.shape
+        u, v = self._grid_coords(np.array([lo_xy[:2], hi_xy[:2]], dtype=float))
+        i0, i1 = int(np.clip(np.floor(u[0]) - 1, 0, nx - 2)), int(np.clip(np.ceil(u[1]) + 1, 1, nx - 1))
+        j0, j1 = int(np.clip(np.floor(v[0]) - 1, 0, ny - 2)), int(np.clip(np.ceil(v[1]) + 1, 1, ny - 1))
+        step = max(1, int(np.ceil(np.sqrt(max(i1 - i0, 1) * max(j1 - j0, 1) / max_cells))))
+        cols = np.unique(np.append(np.arange(i0, i1 + 1, step), i1))  # the box's edge kept
+        rows = np.unique(np.append(np.arange(j0, j1 + 1, step), j1))
+        return self._mesh_through(cols, rows)
 
     def segments_above(self, starts, ends, altitude: float, tol: float = 1e-6,
                        max_checks: int = 4_000_000) -> np.ndarray:

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 MAX_DISPLAY_FACES = 300_000
+MAX_TERRAIN_CELLS = 40_000
 LEG_CODES = {"initial": 0, "coverage": 1, "final": 2}
 
 
@@ -59,6 +60,10 @@ def report_data(route, scene, evaluation, simulation=None) -> dict:
         v, f = display_mesh(part.mesh)
         meshes.append({"name": part.name, "role": part.role, "positions": _b64(v, np.float32),
                        "indices": _b64(f, np.uint32)})
+    if scene.terrain is not None:  # the ground under the picture's frame, not the whole DTM
+        ground = scene.terrain.mesh_within(lo, hi, max_cells=MAX_TERRAIN_CELLS)
+        meshes.append({"name": scene.terrain.source, "role": "terrain",
+                       "positions": _b64(ground.vertices, np.float32), "indices": _b64(ground.faces, np.uint32)})
     extra = {}
     if simulation is not None:
         extra["simulation"] = {"reconstructed": _b64(simulation.reconstructed_at(samples.points), np.uint8),
@@ -213,6 +218,7 @@ minimum clearance {evaluation.metrics['min_clearance_m']:.2f} m
  <div>show:
   <label><input type=checkbox data-layer=targets checked>target</label>
   <label><input type=checkbox data-layer=obstacles checked>obstacles</label>
+  {'<label><input type=checkbox data-layer=terrain checked>terrain</label>' if scene.terrain is not None else ''}
   <label><input type=checkbox data-layer=samples checked>coverage</label>
   <label><input type=checkbox data-layer=uncovered checked>uncovered</label>
   <label><input type=checkbox data-layer=path checked>path</label>

@@ -40,23 +40,27 @@ function addLayer(name, object) {
   scene.add(object);
 }
 
-// Meshes: targets grey, obstacles red.
-const targets = new THREE.Group();
-const obstacles = new THREE.Group();
+// Meshes: targets grey, obstacles red, the terrain (when given) earth-coloured.
+const groups = { target: new THREE.Group(), obstacle: new THREE.Group(), terrain: new THREE.Group() };
+const LOOK = {
+  target: { color: 0xa0aec0, opacity: 0.55, depthWrite: false },
+  obstacle: { color: 0xc53030, opacity: 0.7, depthWrite: true },
+  terrain: { color: 0xb7a77a, opacity: 0.8, depthWrite: true },
+};
 for (const m of data.meshes) {
   const g = new THREE.BufferGeometry();
   g.setAttribute('position', new THREE.BufferAttribute(decode(m.positions, Float32Array), 3));
   g.setIndex(new THREE.BufferAttribute(decode(m.indices, Uint32Array), 1));
   g.computeVertexNormals();
-  const target = m.role === 'target';
+  const role = m.role in groups ? m.role : 'obstacle';
   const mat = new THREE.MeshLambertMaterial({
-    color: target ? 0xa0aec0 : 0xc53030, flatShading: true, side: THREE.DoubleSide,
-    transparent: true, opacity: target ? 0.55 : 0.7, depthWrite: !target,
+    flatShading: true, side: THREE.DoubleSide, transparent: true, ...LOOK[role],
   });
-  (target ? targets : obstacles).add(new THREE.Mesh(g, mat));
+  groups[role].add(new THREE.Mesh(g, mat));
 }
-addLayer('targets', targets);
-addLayer('obstacles', obstacles);
+addLayer('targets', groups.target);
+addLayer('obstacles', groups.obstacle);
+addLayer('terrain', groups.terrain);
 
 // Surface samples coloured by valid views (0, 1, 2, 3+) or by achieved GSD.
 const samplePos = decode(data.samples.positions, Float32Array);
