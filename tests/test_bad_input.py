@@ -143,6 +143,8 @@ ROWS = {
     "batch: not a city file": (lambda t: ["batch", L, "--all", *PLAN, "-o", t / "out"], ["l_prism.obj", "not a city model"]),
     "batch: --workers 0": (lambda t: ["batch", CITY / "lod2_buildings_v2.json.gz", "--all", "--workers", "0", *PLAN,
                                       "-o", t / "out"], ["--workers must be at least 1"]),
+    "batch: a DTM that is not there": (lambda t: ["batch", CITY / "lod2_buildings_v2.json.gz", "--all", "--terrain",
+                                                  t / "dtm.tif", *PLAN, "-o", t / "out"], ["dtm.tif", "no such DTM file"]),
     "unknown drone": (lambda t: ["plan", L, "--drone", "m4x", "--gsd", "0.004", "--security", "3", "-o", t / "r.json"],
                       ["unknown drone 'm4x'", "m3e"]),
     "--drone with --camera": (lambda t: ["plan", L, "--drone", "m3e", *PLAN, "-o", t / "r.json"],

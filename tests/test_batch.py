@@ -148,3 +148,37 @@ def test_folder_names_are_safe_and_unique():
     names = folder_names([Obj("a/b"), Obj("a:b"), Obj(".."), Obj("A_B")])
     assert len(set(n.lower() for n in names)) == 4
     assert all("/" not in n and not n.startswith(".") for n in names)
+
+
+def test_every_building_flies_over_the_dtm_given(tmp_path, model):
+    """--terrain reaches the workers: each building's route follows the DTM (not the flat
+    ground of a city model without relief), and the settings' fingerprint changes with it."""
+    rasterio = pytest.importorskip("rasterio")
+    from rasterio.transform import from_origin
+
+    from coverplan.batch import BuildingJob
+
+    def ground(x, y):
+        return 0.1 * x - 0.5 + 0.02 * y  # 1.1 m across the house; 6 m across the 60 m site
+
+    cell, n = 0.5, 240
+    centres = -60 + cell / 2 + np.arange(n) * cell
+    gx, gy = np.meshgrid(centres, centres[::-1])
+    dtm = tmp_path / "dtm.tif"
+    with rasterio.open(dtm, "w", driver="GTiff", height=n, width=n, count=1, dtype="float64",
+                       transform=from_origin(-60, 60, cell, cell), crs="EPSG:3068") as f:
+        f.write(ground(gx, gy), 1)
+    with_dtm = settings(terrain=str(dtm))
+    assert with_dtm.fingerprint() != settings().fingerprint()
+    job = BuildingJob(CORNER, "corner", model.neighbourhood(CORNER, RADIUS, None), with_dtm, "key")
+    out = plan_building(job)
+    assert out["row"]["status"] == "planned", out["row"]
+    (tmp_path / "route.json").write_bytes(out["files"]["route.json"])
+    route = Route.load(tmp_path / "route.json")
+    p = route.positions
+    np.testing.assert_allclose(route.ground_z, ground(p[:, 0], p[:, 1]), atol=0.02)
+    t = np.linspace(0, 1, 40)[None, :, None]
+    along = (p[:-1, None] * (1 - t) + p[1:, None] * t).reshape(-1, 3)
+    assert (along[:, 2] - ground(along[:, 0], along[:, 1])).min() >= 3.0 - 0.02  # min altitude = security
+    with pytest.raises(ParameterError, match="no such DTM"):
+        settings(terrain=str(tmp_path / "missing.tif"))

@@ -46,6 +46,14 @@ class BatchSettings:
     merge_obstacles_within: float | None = None
     context_radius: float | None = None
     lod: int | None = None
+    terrain: str | None = None  # a DTM raster every worker reads its building's window of
+
+    def __post_init__(self):
+        if self.terrain is not None:
+            path = Path(self.terrain).expanduser()
+            if not path.is_file():
+                raise ParameterError(f"{self.terrain}: no such DTM file")
+            self.terrain = str(path.resolve())  # workers may start in another folder
 
     def fingerprint(self) -> str:
         """Changes with any setting that changes a building's outputs."""
@@ -59,6 +67,9 @@ class BatchSettings:
         data["plan_options"] = {k: plain(v) for k, v in self.plan_options.items()}
         data["camera"] = self.camera.to_dict()
         data["coverplan"] = __version__
+        if self.terrain is not None:  # a DTM replaced under the same name plans again
+            stat = Path(self.terrain).stat()
+            data["terrain_file"] = [stat.st_size, stat.st_mtime_ns]
         return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
@@ -178,7 +189,7 @@ def _plan_and_render(job: BuildingJob) -> tuple[dict, dict]:
     from .scene import load_scene
 
     s = job.settings
-    scene = load_scene(job.neighbourhood.source())
+    scene = load_scene(job.neighbourhood.source(), terrain=s.terrain)
     if s.merge_obstacles_within is not None:
         from .merge import merge_into_target
         scene = merge_into_target(scene, s.merge_obstacles_within)

@@ -280,7 +280,7 @@ def cmd_batch(args) -> int:
                              exports=parse_formats(args.export),
                              export_options=_export_options(args), report=args.report,
                              merge_obstacles_within=args.merge_obstacles_within,
-                             context_radius=args.context_radius, lod=args.lod)
+                             context_radius=args.context_radius, lod=args.lod, terrain=args.terrain)
     progress = Progress(bars=not args.quiet)
     result = run_batch(args.city, args.output, settings, buildings=args.buildings, everything=args.all,
                        bbox=args.bbox, where=parse_where(args.where), workers=args.workers,
@@ -612,6 +612,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--lod", type=int, default=None, help="level of detail (default: each building's highest)")
     p.add_argument("--context-radius", type=float, default=None, metavar="M",
                    help="city objects within this distance of a building are its obstacles (default 150)")
+    p.add_argument("--terrain", default=None, metavar="DTM",
+                   help="ground heights as a raster (GeoTIFF, any CRS; heights in the city model's height system) "
+                        "instead of the city model's own ground; every worker reads it (needs coverplan[terrain])")
     _add_planning_args(p)
     p.add_argument("--no-report", dest="report", action="store_false", help="no HTML report per building")
     p.add_argument("-o", "--output", required=True, metavar="OUTDIR",
