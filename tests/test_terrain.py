@@ -148,6 +148,22 @@ def test_hill_beside_the_house_is_flown_over_or_around_at_the_minimum_altitude(t
     assert m["safe"] and m["coverage_pct"] >= 99.5
 
 
+def test_dtm_heights_are_taken_as_they_are_at_its_pixel_centres(tmp_path):
+    """A bank 3 m high and a sharp hilltop: read in its own frame, the planner's ground passes
+    through every pixel centre's height (no averaging that lowers the top of the bank)."""
+    def bank(x, y):
+        return np.where(x > 4.1, 3.0, 0.0) + 2.0 * np.exp(-((x + 9.0) ** 2 + (y - 3.0) ** 2) / 2.0)
+
+    dtm = write_dtm(tmp_path / "bank.tif", bank)
+    house = tmp_path / "box.obj"
+    box(-3, -3, 0, 3, 3, 6).export(house)
+    scene = load_scene(house, terrain=dtm)
+    centres = -HALF + CELL / 2 + np.arange(int(2 * HALF / CELL)) * CELL
+    near = centres[np.abs(centres) < 30]
+    gx, gy = (g.ravel() for g in np.meshgrid(near, near))
+    np.testing.assert_allclose(scene.terrain.height(np.column_stack([gx, gy])), bank(gx, gy), atol=1e-9)
+
+
 def test_dtm_in_another_crs_is_reprojected_to_the_models(tmp_path):
     from pyproj import Transformer
     to_utm = Transformer.from_crs("EPSG:4326", "EPSG:25832", always_xy=True)

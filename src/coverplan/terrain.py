@@ -263,6 +263,12 @@ def read_dtm(path, scene_crs: str | None, origin, lo_xy, hi_xy, unit_m: float = 
                                        f"{wanted_hi[0] - margin:.1f}, y {wanted_lo[1] + margin:.1f}..{wanted_hi[1] - margin:.1f}")
         cells = np.prod(np.ceil((hi - lo) / step) + 1)
         resampling = Resampling.bilinear
+        if raster_crs is None and cells <= MAX_CELLS and abs(src.res[0] - src.res[1]) < 1e-9 * res:
+            # Nodes on the raster's pixel centres take its heights as they are; nodes on its
+            # corners took the mean of four pixels, lowering a hilltop or the top of a bank.
+            first, last = have[:2] + res / 2, have[2:] - res / 2
+            lo = np.clip(first + np.floor((lo - first) / res) * res, first, last)
+            hi = np.clip(first + np.ceil((hi - first) / res) * res, first, last)
         if cells > MAX_CELLS:
             step *= float(np.sqrt(cells / MAX_CELLS))
             resampling = Resampling.max
