@@ -150,6 +150,24 @@ def test_obstacle_hiding_part_of_a_wall_plans_the_rest(thesis_camera):
     assert listed == pytest.approx(ev.metrics["unreachable_area_m2"], rel=0.1)
 
 
+def test_claim_holds_beside_a_block_flush_against_a_wall():
+    """A 1 m block 9 cm off a wall (the slow property test's find): the wall behind it is
+    hidden, and the strip beside its outline is imaged from grazing views that a few
+    centimetres further in are cut off. The planner claimed 100 % there and the evaluator
+    found 99.89 %; the samples at that edge are now judged from points around them too."""
+    scene = scene_from_meshes([box(-1.5, -1.5, 0, 1.5, 1.5, 4)], [box(-2.34375, 0.0, 0.0, -1.59375, 1.0, 1.0)])
+    route = plan(scene, get_camera("mavic3e"), gsd=0.0007998002810858792, security=1.0, min_altitude=1.0,
+                 lp_time_limit=5)
+    ev = evaluate(route, scene)
+    assert ev.safe
+    assert route.metrics["planned_coverage_pct"] <= ev.metrics["coverage_pct"] + 0.1
+    edge = np.array([u["position"] for u in route.uncovered if u["reason"].startswith("at the edge of surface")])
+    assert len(edge)
+    # on the west wall, around the block's outline (y 0..1, up to z 1), not elsewhere
+    assert np.allclose(edge[:, 0], -1.5) and (edge[:, 1] > -0.5).all() and (edge[:, 1] < 1.5).all()
+    assert (edge[:, 2] < 1.5).all()
+
+
 def test_walls_seen_only_between_obstacles():
     # A scene the property test drew: a slab through the roof, a block floating over the east
     # wall's foot, a shed 7.6 m off the north wall (under twice the 3.86 m security distance).

@@ -299,6 +299,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
         specials = np.vstack([start, shots.positions])
         fg = build_flight_graph(scene, limits, specials, margin=margin, spacing=h, cost_weight=cost_weight)
         closure, pred, direct = shot_distances(fg, len(specials), limit)
+    check = closer.edge_of_hidden(check, chosen)
     uncovered = closer.uncovered(check, lost_path=not flyable.all())
     with progress.stage("tour"):
         order = solve_tour(closure)

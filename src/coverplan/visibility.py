@@ -18,6 +18,7 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from .orientation import camera_axes
+from .reachability import tangent_frames
 
 
 def imaging_pairs(positions, headings, pitches, camera, points, normals, rays, *,
@@ -111,6 +112,21 @@ def _imaged_chunks(positions, headings, pitches, camera, points, normals, rays, 
         yield i[k], j[k], dist[k], x[k], y[k], z[k], towards
         if progress is not None:
             progress(len(cams))
+
+
+def clear_around(rays, points, normals, cameras, radius: float, skip: float) -> np.ndarray:
+    """Per (point, camera): whether the camera also sees past whatever stands between from
+    the four points ``radius`` off the point in its tangent plane. Their segments start
+    ``skip`` out, so the surface beside the point (a concave corner) does not count: that
+    is the point's own ray's business."""
+    t1, t2 = tangent_frames(normals)
+    out = np.ones(len(points), dtype=bool)
+    for off in (t1, -t1, t2, -t2):
+        start = points + off * radius
+        way = cameras - start
+        way /= np.linalg.norm(way, axis=1, keepdims=True)
+        out &= ~rays.segments_blocked(start + way * skip, cameras)
+    return out
 
 
 def in_view(x, y, z, dist, towards, tan_h: float, tan_v: float, reach: float, max_incidence_deg: float,
