@@ -58,7 +58,7 @@ CHECK_MARGIN = 0.01
 CHECK_BALL = 0.25
 MAX_AROUND = 2000  # known views a dense re-probe looks around (16 x 3 probes each)
 EDGE_NEAR = 2.0  # x the check spacing: a covered sample this near a hidden one is at the edge
-EDGE_AROUND = 0.5  # x the check spacing: how far off an edge sample its views must see past
+EDGE_AROUND = 0.25  # x the check spacing: how far off an edge sample its views must see past
 EDGE_REASON = "at the edge of surface no safe viewpoint sees: its views are cut off a few centimetres away"
 
 
