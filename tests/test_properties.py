@@ -70,17 +70,25 @@ def settings_(draw):
             "min_altitude": draw(st.floats(0.5, security)), "d_opt": d_opt}
 
 
+def plan_or_refusal(scene, opts):
+    """The plan for ``opts`` (camera, gsd, security, min_altitude), or None where the planner
+    refuses with a documented one-line error."""
+    try:
+        return plan(scene, opts["camera"], gsd=opts["gsd"], security=opts["security"],
+                    min_altitude=opts["min_altitude"], lp_time_limit=5)
+    except (PlanningError, ParameterError) as exc:
+        assert str(exc) and "\n" not in str(exc)
+        return None
+
+
 def check_random_scene(target_spec, obstacle_boxes, opts, results: dict, short: dict) -> None:
     """Plan one random scene and re-check every claim; its coverage goes into ``results``
     (and into ``short`` when below 99.5 %)."""
     target = target_mesh(target_spec)
     obs = [box(*b) for b in obstacle_boxes]
     scene = scene_from_meshes([target], obs)
-    try:
-        route = plan(scene, opts["camera"], gsd=opts["gsd"], security=opts["security"],
-                     min_altitude=opts["min_altitude"], lp_time_limit=5)
-    except (PlanningError, ParameterError) as exc:
-        assert str(exc) and "\n" not in str(exc)
+    route = plan_or_refusal(scene, opts)
+    if route is None:
         return
     ev = evaluate(route, scene)  # every 0.25 m, on samples the planner never saw
     key = (tuple(np.round(target.bounds.ravel(), 6)), tuple(tuple(np.round(o.bounds.ravel(), 6)) for o in obs),

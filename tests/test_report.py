@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import shutil
+import time
 
 import numpy as np
 import pytest
@@ -25,6 +26,16 @@ def planned_house():
     return scene, route, evaluate(route, scene)
 
 
+def open_report(browser, path) -> None:
+    """Load the report in ``browser`` and wait until its viewer says it is ready."""
+    browser.get(path.as_uri())
+    for _ in range(200):
+        if browser.execute_script("return window.reportReady === true"):
+            break
+        time.sleep(0.05)
+    assert browser.execute_script("return window.reportReady === true"), "viewer never finished"
+
+
 def chromium():
     try:
         from selenium import webdriver
@@ -44,7 +55,6 @@ def chromium():
 
 def test_report_renders_in_headless_chromium(planned_house, tmp_path):
     import io
-    import time
 
     import matplotlib.image as mpimg
 
@@ -53,12 +63,7 @@ def test_report_renders_in_headless_chromium(planned_house, tmp_path):
     assert path.stat().st_size < 10e6
     browser = chromium()
     try:
-        browser.get(path.as_uri())
-        for _ in range(200):
-            if browser.execute_script("return window.reportReady === true"):
-                break
-            time.sleep(0.05)
-        assert browser.execute_script("return window.reportReady === true"), "viewer never finished"
+        open_report(browser, path)
         errors = [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
         assert not errors, errors
         rows = browser.execute_script("return document.querySelectorAll('#road-map tbody tr').length")

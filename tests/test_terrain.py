@@ -333,9 +333,8 @@ def test_report_draws_the_ground_under_its_frame(tmp_path):
     frame (not the whole raster), thinned to at most MAX_TERRAIN_CELLS cells, with a layer
     switch; the page renders without errors."""
     import base64
-    import time
 
-    from test_report import chromium
+    from test_report import chromium, open_report
 
     from coverplan import evaluate
     from coverplan.report import write_html_report
@@ -359,12 +358,7 @@ def test_report_draws_the_ground_under_its_frame(tmp_path):
     assert "data-layer=terrain" in page.read_text()
     browser = chromium()
     try:
-        browser.get(page.as_uri())
-        for _ in range(200):
-            if browser.execute_script("return window.reportReady === true"):
-                break
-            time.sleep(0.05)
-        assert browser.execute_script("return window.reportReady === true"), "viewer never finished"
+        open_report(browser, page)
         browser.execute_script("document.querySelector('input[data-layer=terrain]').click();")
         assert not [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
     finally:

@@ -231,10 +231,7 @@ class GapCloser:
         last, was_covered = self._last
         known = was_covered if np.isin(last, chosen).all() else np.zeros(n, dtype=bool)
         live &= firm & ~known[pt]
-        who, pt = who[live], pt[live]
-        rays = view_rays(who, pt, self.p.cands.positions, self.fine.points)
-        covered = known | ((np.bincount(pt, minlength=n) >= self.min_views)
-                           & has_pair_between(pt, rays, n, self.min_tri, self.max_pair))
+        covered = known | self._enough(who[live], pt[live])
         self._last = (chosen, covered)
         # Imaged by a chosen (safe) shot within range proves a sample reachable; probe the rest.
         self.reachable |= views > 0
@@ -247,6 +244,14 @@ class GapCloser:
             self.reach_known[unknown] = True
         self.reason[self.reachable] = ""  # a shot added later may image what the probes missed
         return FineCheck(self.fine, covered, self.reachable.copy(), self.reason.copy())
+
+    def _enough(self, who: np.ndarray, pt: np.ndarray) -> np.ndarray:
+        """Per check sample: whether the views (candidate ``who`` images sample ``pt``) are
+        enough, and hold a pair in the angle window."""
+        n = len(self.fine)
+        rays = view_rays(who, pt, self.p.cands.positions, self.fine.points)
+        return (np.bincount(pt, minlength=n) >= self.min_views) & has_pair_between(pt, rays, n, self.min_tri,
+                                                                                   self.max_pair)
 
     def edge_of_hidden(self, check: FineCheck, chosen: np.ndarray) -> FineCheck:
         """``check`` with the covered samples beside hidden surface judged again, each view
@@ -270,12 +275,8 @@ class GapCloser:
         seen = clear_around(self.p.scene.rays, pts[pt[k]], self.fine.normals[pt[k]], cams,
                             EDGE_AROUND * self.fine.spacing, 4.0 * self.ball_m)
         k = k[seen]
-        n = len(self.fine)
-        rays = view_rays(who[k], pt[k], self.p.cands.positions, pts)
-        holds = (np.bincount(pt[k], minlength=n) >= self.min_views) & has_pair_between(pt[k], rays, n, self.min_tri,
-                                                                                     self.max_pair)
-        edge = np.zeros(n, dtype=bool)
-        edge[rows] = ~holds[rows]
+        edge = np.zeros(len(self.fine), dtype=bool)
+        edge[rows] = ~self._enough(who[k], pt[k])[rows]
         if not edge.any():
             return check
         return FineCheck(check.samples, check.covered & ~edge, check.reachable, check.reason, edge)
