@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import os
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -22,7 +23,7 @@ from .progress import Progress
 from .reconstructability import MatchRule, add_sharp_views, connect_shots, incidence_deg
 from .reachability import ViewLimits, reachability, scene_limits
 from .route import Route, polyline_length
-from .repair import MAX_ROUNDS, TARGET_PCT, CoverProblem, GapCloser
+from .repair import MAX_ROUNDS, TARGET_PCT, CoverProblem, GapCloser, check_samples, planner_check_spacing
 from .selection import select_views
 from .surface import default_spacing, sample_surface
 from .tour import solve_tour
@@ -204,6 +205,11 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     check_size(scene, camera, spacing, distance, max_memory)
     start = default_start(scene, limits, margin) if start is None else check_start(scene, start, limits, notes)
 
+    # The check samples depend on the target alone: drawn on another core meanwhile (Embree
+    # and HiGHS release the GIL), they are ready when the repair needs them.
+    background = ThreadPoolExecutor(max_workers=1)
+    fine_job = background.submit(check_samples, scene, planner_check_spacing(scene, spacing), surface_classes)
+    background.shutdown(wait=False)
     with progress.stage("surface samples"):
         samples = sample_surface(scene, spacing)
         if surface_classes:
@@ -252,7 +258,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
                                "check the security distance and GSD"))
     with progress.stage("fine check and repair"):
         closer = GapCloser(problem, min_views, min_triangulation_deg, max_pair, distance, margin,
-                           surface_classes=surface_classes)
+                           surface_classes=surface_classes, fine=fine_job.result())
         check = closer.check(chosen)
         history = [check.coverage_pct]
         while check.coverage_pct < TARGET_PCT and len(history) <= MAX_ROUNDS and closer.extend(check):
