@@ -258,7 +258,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
                                "check the security distance and GSD"))
     with progress.stage("fine check and repair"):
         closer = GapCloser(problem, min_views, min_triangulation_deg, max_pair, distance, margin,
-                           surface_classes=surface_classes, fine=fine_job.result())
+                           fine_job.result())
         check = closer.check(chosen)
         history = [check.coverage_pct]
         while check.coverage_pct < TARGET_PCT and len(history) <= MAX_ROUNDS and closer.extend(check):

@@ -186,13 +186,12 @@ class GapCloser:
     """Fine check of a selection, and the new samples and candidates for what it misses."""
 
     def __init__(self, problem: CoverProblem, min_views: int, min_tri: float, max_pair: float | None,
-                 distance: float, margin: float, surface_classes=None, fine: SurfaceSamples | None = None):
-        """``fine``: the check samples, if drawn already (``check_samples`` at ``planner_check_spacing``)."""
+                 distance: float, margin: float, fine: SurfaceSamples):
+        """``fine``: the check samples (``check_samples`` at ``planner_check_spacing``)."""
         self.p = problem
         self.min_views, self.min_tri, self.max_pair = min_views, min_tri, max_pair
         self.distance, self.margin = distance, margin
-        self.fine = fine if fine is not None else check_samples(
-            problem.scene, planner_check_spacing(problem.scene, problem.samples.spacing), surface_classes)
+        self.fine = fine
         self.ball_m = CHECK_BALL * self.fine.spacing
         self._tree = cKDTree(self.fine.points)
         n = len(self.fine)
