@@ -46,7 +46,8 @@ def run_scene(name, scene, camera, gsd, security, repeats):
            "planned_pct": route.metrics["planned_coverage_pct"], "coverage_0125_pct": finer,
            "repair_rounds": route.metrics.get("repair_rounds"), "repair_shots": route.metrics.get("repair_shots")}
     # The LP bounds the covering shots; linking and repair shots come on top of it.
-    covering = row["shots"] - (row["linking_shots"] or 0) - (row["repair_shots"] or 0)
+    covering = (row["shots"] + (route.metrics.get("redundant_shots_dropped") or 0) - (row["linking_shots"] or 0)
+                - (row["repair_shots"] or 0))
     row["shots_over_lp"] = covering / row["lp_bound"] if row["lp_bound"] else None
     if name in THESIS_3D:
         row["thesis_shots"], row["thesis_path"], row["thesis_s"] = thesis_totals(name)

@@ -11,6 +11,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+import scipy.sparse as sp
 
 from .camera import Camera, check_positive
 from .candidates import along_normals, facade_rings, from_probes, keep_safe, standoff, under_overhangs
@@ -20,7 +21,9 @@ from .flighttime import FlightModel
 from .pathing import (build_flight_graph, closure_hops, lattice_spacing, leg, shortcut,
                       shot_distances)
 from .progress import Progress
-from .reconstructability import MatchRule, add_sharp_views, connect_shots, incidence_deg
+from .reconstructability import (SHARP_INCIDENCE_DEG, MatchRule, add_sharp_views, best_incidence, connect_shots,
+                                 incidence_deg, sharp_view_matrix, shot_links)
+from .redundancy import CheckViews, SharpViews, drop_redundant
 from .reachability import ViewLimits, reachability, scene_limits
 from .route import Route, polyline_length
 from .repair import MAX_ROUNDS, TARGET_PCT, CoverProblem, GapCloser, check_samples, planner_check_spacing
@@ -283,6 +286,13 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
                                          before, match, 0.5 * d_opt)
                 fine_sharp = len(chosen) - before
                 check = closer.check(chosen)
+        dropped, complete = 0, len(chosen)
+        if match is not None:
+            before = len(chosen)
+            chosen = _drop_redundant(problem, closer, chosen, check.covered, len(samples), vis, match)
+            dropped = before - len(chosen)
+            if dropped:
+                check = closer.check(chosen)
     cands = problem.cands
     shots = cands.subset(chosen)
     with progress.stage("lattice and Dijkstra"):
@@ -340,7 +350,8 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
         "selected_views": int(len(chosen)),
         "sharp_view_shots": int(sharpening + fine_sharp),
         "linking_shots": int(max(len(selection.chosen) - covering - sharpening, 0)),
-        "repair_shots": int(max(len(chosen) - len(selection.chosen) - fine_sharp, 0)),
+        "repair_shots": int(max(complete - len(selection.chosen) - fine_sharp, 0)),
+        "redundant_shots_dropped": int(dropped),
         "repair_rounds": len(history) - 1,
         "check_coverage_history_pct": history,
         "path_length_m": route.path_length,
@@ -378,6 +389,33 @@ def _link_new_shots(vis, positions, points, chosen, before: int, match: MatchRul
     pool = np.union1d(chosen, np.flatnonzero(near))
     linked = connect_shots(vis[pool], positions[pool], points, np.searchsorted(pool, chosen), match)
     return pool[linked]
+
+
+def _drop_redundant(problem: CoverProblem, closer: GapCloser, chosen: np.ndarray, covered: np.ndarray,
+                    coarse: int, vis, match: MatchRule) -> np.ndarray:
+    """``drop_redundant`` keeping the fine check's coverage, the links between the shots and the
+    sharp views: on the planner's samples as the sharp-view stage asked them, on the check
+    samples a view as square as 35 deg or as the plan's best (between the planner's samples
+    1-2 m apart the gabled house's roof lost its square views)."""
+    n_cands = len(problem.cands)
+    who, at = closer.firm_views()
+    positions, fine = problem.cands.positions, closer.fine
+    views = CheckViews(who, at, view_rays(who, at, positions, fine.points), covered,
+                       closer.min_views, closer.min_tri, closer.max_pair)
+    sharp = []
+    if match.sharp_views:
+        cam, pt, _ = problem.pairs
+        own = pt < coarse
+        inc = incidence_deg(cam[own], pt[own], positions, problem.samples.points, problem.samples.normals)
+        sharp.append(SharpViews(sharp_view_matrix(cam[own], pt[own], inc, n_cands, coarse), match.sharp_views))
+        inc = incidence_deg(who, at, positions, fine.points, fine.normals)
+        mine = np.isin(who, chosen)
+        best = np.maximum(best_incidence(at[mine], inc[mine], len(fine)), SHARP_INCIDENCE_DEG)
+        square = inc <= best[at]
+        sharp.append(SharpViews(sp.csr_matrix((np.ones(int(square.sum())), (who[square], at[square])),
+                                              shape=(n_cands, len(fine))), match.sharp_views))
+    links = shot_links(vis[chosen][:, :coarse], positions[chosen], problem.samples.points[:coarse], match)
+    return drop_redundant(chosen, views, sharp, links, match.min_neighbours)
 
 
 def _short_samples(pairs, positions, samples, min_views, min_tri, max_pair=None) -> np.ndarray:

@@ -217,14 +217,20 @@ def sharp_targets(pt: np.ndarray, incidence: np.ndarray, n_samples: int, limit_d
     return np.maximum(limit_deg, best_incidence(pt, incidence, n_samples) + slack_deg)
 
 
+def sharp_view_matrix(cam: np.ndarray, pt: np.ndarray, incidence: np.ndarray, n_cands: int,
+                      n_samples: int) -> sp.csr_matrix:
+    """Candidates x samples, 1 where the view is sharp (within the sample's ``sharp_targets``)."""
+    sharp = incidence <= sharp_targets(pt, incidence, n_samples)[pt]
+    return sp.csr_matrix((np.ones(int(sharp.sum())), (cam[sharp], pt[sharp])), shape=(n_cands, n_samples))
+
+
 def add_sharp_views(cam: np.ndarray, pt: np.ndarray, incidence: np.ndarray, n_cands: int, area: np.ndarray,
                     chosen: np.ndarray, views: int = 1, min_gain_m2: float = 1.0) -> np.ndarray:
     """Add candidates to ``chosen`` until every sample has ``views`` views at its sharp
     incidence (``sharp_targets``) or no candidate adds ``min_gain_m2`` of surface that lacks
     them. Greedy: each time the candidate giving most such surface a sharp view."""
     n = len(area)
-    sharp = incidence <= sharp_targets(pt, incidence, n)[pt]
-    m = sp.csr_matrix((np.ones(int(sharp.sum())), (cam[sharp], pt[sharp])), shape=(n_cands, n))
+    m = sharp_view_matrix(cam, pt, incidence, n_cands, n)
     offered = np.asarray(m.sum(axis=0)).ravel()
     taken = np.zeros(n_cands, dtype=bool)
     taken[np.asarray(chosen, dtype=np.int64)] = True

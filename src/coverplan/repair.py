@@ -231,7 +231,7 @@ class GapCloser:
         last, was_covered = self._last
         known = was_covered if np.isin(last, chosen).all() else np.zeros(n, dtype=bool)
         live &= firm & ~known[pt]
-        covered = known | self._enough(who[live], pt[live])
+        covered = known | self.enough(who[live], pt[live])
         self._last = (chosen, covered)
         # Imaged by a chosen (safe) shot within range proves a sample reachable; probe the rest.
         self.reachable |= views > 0
@@ -245,7 +245,7 @@ class GapCloser:
         self.reason[self.reachable] = ""  # a shot added later may image what the probes missed
         return FineCheck(self.fine, covered, self.reachable.copy(), self.reason.copy())
 
-    def _enough(self, who: np.ndarray, pt: np.ndarray) -> np.ndarray:
+    def enough(self, who: np.ndarray, pt: np.ndarray) -> np.ndarray:
         """Per check sample: whether the views (candidate ``who`` images sample ``pt``) are
         enough, and hold a pair in the angle window."""
         n = len(self.fine)
@@ -276,7 +276,7 @@ class GapCloser:
                             EDGE_AROUND * self.fine.spacing, 4.0 * self.ball_m)
         k = k[seen]
         edge = np.zeros(len(self.fine), dtype=bool)
-        edge[rows] = ~self._enough(who[k], pt[k])[rows]
+        edge[rows] = ~self.enough(who[k], pt[k])[rows]
         if not edge.any():
             return check
         return FineCheck(check.samples, check.covered & ~edge, check.reachable, check.reason, edge)
@@ -356,6 +356,11 @@ class GapCloser:
         cam, pt, _ = self.p.pairs_between(self.p.cands, sub)
         inc = incidence_deg(cam, pt, self.p.cands.positions, sub.points, sub.normals)
         return add_sharp_views(cam, pt, inc, len(self.p.cands), sub.area, chosen, views=views)
+
+    def firm_views(self) -> tuple[np.ndarray, np.ndarray]:
+        """(candidate, check sample) of every view the checks so far counted."""
+        who, pt, firm = self._views
+        return who[firm], pt[firm]
 
     def uncovered(self, check: FineCheck, lost_path: bool = False) -> list[dict]:
         """Every missed check sample with its area and why: unreachable (the probes' reason),
