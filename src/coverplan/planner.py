@@ -23,9 +23,9 @@ from .pathing import (build_flight_graph, closure_hops, lattice_spacing, leg, sh
 from .progress import Progress
 from .reconstructability import (SHARP_INCIDENCE_DEG, MatchRule, add_sharp_views, best_incidence, connect_shots,
                                  incidence_deg, sharp_view_matrix, shot_links)
-from .redundancy import CheckViews, SharpViews, drop_redundant
 from .reachability import ViewLimits, reachability, scene_limits
 from .route import Route, polyline_length
+from .redundancy import CheckViews, SharpViews, drop_redundant
 from .repair import MAX_ROUNDS, TARGET_PCT, CoverProblem, GapCloser, check_samples, planner_check_spacing
 from .selection import select_views
 from .surface import default_spacing, sample_surface
@@ -291,8 +291,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
             before = len(chosen)
             chosen = _drop_redundant(problem, closer, chosen, check.covered, len(samples), vis, match)
             dropped = before - len(chosen)
-            if dropped:
-                check = closer.check(chosen)
+            check = closer.kept(check, chosen)
     cands = problem.cands
     shots = cands.subset(chosen)
     with progress.stage("lattice and Dijkstra"):
@@ -399,6 +398,8 @@ def _drop_redundant(problem: CoverProblem, closer: GapCloser, chosen: np.ndarray
     1-2 m apart the gabled house's roof lost its square views)."""
     n_cands = len(problem.cands)
     who, at = closer.firm_views()
+    mine = np.isin(who, chosen)
+    who, at = who[mine], at[mine]
     positions, fine = problem.cands.positions, closer.fine
     views = CheckViews(who, at, view_rays(who, at, positions, fine.points), covered,
                        closer.min_views, closer.min_tri, closer.max_pair)
@@ -409,8 +410,7 @@ def _drop_redundant(problem: CoverProblem, closer: GapCloser, chosen: np.ndarray
         inc = incidence_deg(cam[own], pt[own], positions, problem.samples.points, problem.samples.normals)
         sharp.append(SharpViews(sharp_view_matrix(cam[own], pt[own], inc, n_cands, coarse), match.sharp_views))
         inc = incidence_deg(who, at, positions, fine.points, fine.normals)
-        mine = np.isin(who, chosen)
-        best = np.maximum(best_incidence(at[mine], inc[mine], len(fine)), SHARP_INCIDENCE_DEG)
+        best = np.maximum(best_incidence(at, inc, len(fine)), SHARP_INCIDENCE_DEG)
         square = inc <= best[at]
         sharp.append(SharpViews(sp.csr_matrix((np.ones(int(square.sum())), (who[square], at[square])),
                                               shape=(n_cands, len(fine))), match.sharp_views))

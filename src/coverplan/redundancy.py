@@ -18,7 +18,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 
 from .visibility import has_pair_between
 
@@ -59,7 +58,7 @@ def drop_redundant(chosen: np.ndarray, views: CheckViews, sharp: list[SharpViews
     mine = np.isin(views.who, chosen)
     pt, rays = views.pt[mine], views.rays[mine]
     row = order[np.searchsorted(chosen[order], views.who[mine])]
-    by_sample = np.argsort(pt, kind="stable")
+    by_sample = np.argsort(pt)
     pt_sorted = pt[by_sample]
     by_row = np.argsort(row, kind="stable")
     by_shot = np.split(pt[by_row], np.searchsorted(row[by_row], np.arange(1, n)))
@@ -72,7 +71,7 @@ def drop_redundant(chosen: np.ndarray, views: CheckViews, sharp: list[SharpViews
         links = np.zeros((n, n), dtype=bool)
     degree = links.sum(axis=1)
     floor = np.minimum(degree, min_neighbours)
-    pieces = _pieces(links, alive)
+    neighbours = [np.flatnonzero(r).tolist() for r in links]
 
     for k in range(n - 1, -1, -1):
         # Sharp views and links first: the cheapest tests.
@@ -96,23 +95,29 @@ def drop_redundant(chosen: np.ndarray, views: CheckViews, sharp: list[SharpViews
                                     views.max_pair_deg).all():
                 continue
         alive[k] = False
-        if len(near):
-            left = _pieces(links, alive)
-            if left > pieces:
-                alive[k] = True
-                continue
-            pieces = left
+        if len(near) > 1 and not _joined(neighbours, alive, near):
+            alive[k] = True
+            continue
         degree[near] -= 1
         for h, m in zip(have, sharp_rows):
             h[m.indices[m.indptr[k]:m.indptr[k + 1]]] -= 1
     return chosen[alive]
 
 
-def _pieces(links: np.ndarray, alive: np.ndarray) -> int:
-    idx = np.flatnonzero(alive)
-    if len(idx) == 0:
-        return 0
-    return int(connected_components(sp.csr_matrix(links[np.ix_(idx, idx)]), directed=False)[0])
+def _joined(neighbours: list[list[int]], alive: np.ndarray, near: np.ndarray) -> bool:
+    """Whether the shots ``near`` (the alive neighbours of a dropped shot) still reach each
+    other through alive shots: if so, dropping it split no piece. A search from one of them
+    that stops once it has met them all, mostly a few steps away."""
+    want = {int(j) for j in near[1:]}
+    seen = {int(near[0])}
+    todo = [int(near[0])]
+    while todo and want:
+        for v in neighbours[todo.pop()]:
+            if alive[v] and v not in seen:
+                seen.add(v)
+                want.discard(v)
+                todo.append(v)
+    return not want
 
 
 def _ranges(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

@@ -245,6 +245,12 @@ class GapCloser:
         self.reason[self.reachable] = ""  # a shot added later may image what the probes missed
         return FineCheck(self.fine, covered, self.reachable.copy(), self.reason.copy())
 
+    def kept(self, check: FineCheck, chosen: np.ndarray) -> FineCheck:
+        """``check`` for a subset ``chosen`` of its shots that covers every sample it covered
+        (``redundancy.drop_redundant`` keeps that): remembered, not worked out again."""
+        self._last = (np.asarray(chosen, dtype=np.int64), check.covered)
+        return check
+
     def enough(self, who: np.ndarray, pt: np.ndarray) -> np.ndarray:
         """Per check sample: whether the views (candidate ``who`` images sample ``pt``) are
         enough, and hold a pair in the angle window."""
