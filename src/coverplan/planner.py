@@ -11,7 +11,6 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
-import scipy.sparse as sp
 
 from .camera import Camera, check_positive
 from .candidates import along_normals, facade_rings, from_probes, keep_safe, standoff, under_overhangs
@@ -286,12 +285,11 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
                                          before, match, 0.5 * d_opt)
                 fine_sharp = len(chosen) - before
                 check = closer.check(chosen)
-        dropped, complete = 0, len(chosen)
+        complete = len(chosen)
         if match is not None:
-            before = len(chosen)
             chosen = _drop_redundant(problem, closer, chosen, check.covered, len(samples), vis, match)
-            dropped = before - len(chosen)
             check = closer.kept(check, chosen)
+        dropped = complete - len(chosen)
     cands = problem.cands
     shots = cands.subset(chosen)
     with progress.stage("lattice and Dijkstra"):
@@ -411,9 +409,7 @@ def _drop_redundant(problem: CoverProblem, closer: GapCloser, chosen: np.ndarray
         sharp.append(SharpViews(sharp_view_matrix(cam[own], pt[own], inc, n_cands, coarse), match.sharp_views))
         inc = incidence_deg(who, at, positions, fine.points, fine.normals)
         best = np.maximum(best_incidence(at, inc, len(fine)), SHARP_INCIDENCE_DEG)
-        square = inc <= best[at]
-        sharp.append(SharpViews(sp.csr_matrix((np.ones(int(square.sum())), (who[square], at[square])),
-                                              shape=(n_cands, len(fine))), match.sharp_views))
+        sharp.append(SharpViews(sharp_view_matrix(who, at, inc, n_cands, len(fine), targets=best), match.sharp_views))
     links = shot_links(vis[chosen][:, :coarse], positions[chosen], problem.samples.points[:coarse], match)
     return drop_redundant(chosen, views, sharp, links, match.min_neighbours)
 

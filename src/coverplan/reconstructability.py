@@ -218,9 +218,12 @@ def sharp_targets(pt: np.ndarray, incidence: np.ndarray, n_samples: int, limit_d
 
 
 def sharp_view_matrix(cam: np.ndarray, pt: np.ndarray, incidence: np.ndarray, n_cands: int,
-                      n_samples: int) -> sp.csr_matrix:
-    """Candidates x samples, 1 where the view is sharp (within the sample's ``sharp_targets``)."""
-    sharp = incidence <= sharp_targets(pt, incidence, n_samples)[pt]
+                      n_samples: int, targets: np.ndarray | None = None) -> sp.csr_matrix:
+    """Candidates x samples, 1 where the view is sharp: within the sample's ``targets``
+    (per sample, degrees; default ``sharp_targets``)."""
+    if targets is None:
+        targets = sharp_targets(pt, incidence, n_samples)
+    sharp = incidence <= targets[pt]
     return sp.csr_matrix((np.ones(int(sharp.sum())), (cam[sharp], pt[sharp])), shape=(n_cands, n_samples))
 
 

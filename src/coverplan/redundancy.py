@@ -75,8 +75,7 @@ def drop_redundant(chosen: np.ndarray, views: CheckViews, sharp: list[SharpViews
 
     for k in range(n - 1, -1, -1):
         # Sharp views and links first: the cheapest tests.
-        if any((h[m.indices[m.indptr[k]:m.indptr[k + 1]]] - 1 < d[m.indices[m.indptr[k]:m.indptr[k + 1]]]).any()
-               for h, d, m in zip(have, need, sharp_rows)):
+        if any((h[_row(m, k)] - 1 < d[_row(m, k)]).any() for h, d, m in zip(have, need, sharp_rows)):
             continue
         near = np.flatnonzero(links[k] & alive)
         if (degree[near] - 1 < floor[near]).any():
@@ -100,8 +99,13 @@ def drop_redundant(chosen: np.ndarray, views: CheckViews, sharp: list[SharpViews
             continue
         degree[near] -= 1
         for h, m in zip(have, sharp_rows):
-            h[m.indices[m.indptr[k]:m.indptr[k + 1]]] -= 1
+            h[_row(m, k)] -= 1
     return chosen[alive]
+
+
+def _row(m: sp.csr_matrix, k: int) -> np.ndarray:
+    """The columns of row ``k`` of ``m``."""
+    return m.indices[m.indptr[k]:m.indptr[k + 1]]
 
 
 def _joined(neighbours: list[list[int]], alive: np.ndarray, near: np.ndarray) -> bool:
