@@ -20,8 +20,8 @@ from .flighttime import FlightModel
 from .pathing import (build_flight_graph, closure_hops, lattice_spacing, leg, shortcut,
                       shot_distances)
 from .progress import Progress
-from .reconstructability import (SHARP_INCIDENCE_DEG, MatchRule, add_sharp_views, best_incidence, connect_shots,
-                                 incidence_deg, sharp_view_matrix, shot_links)
+from .reconstructability import (SHARP_INCIDENCE_DEG, MatchRule, add_sharp_views, best_incidence, candidate_links,
+                                 connect_shots, incidence_deg, sharp_view_matrix, shot_links)
 from .reachability import ViewLimits, reachability, scene_limits
 from .route import Route, polyline_length
 from .redundancy import CheckViews, SharpViews, drop_redundant
@@ -211,7 +211,6 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     # and HiGHS release the GIL), they are ready when the repair needs them.
     background = ThreadPoolExecutor(max_workers=1)
     fine_job = background.submit(check_samples, scene, planner_check_spacing(scene, spacing), surface_classes)
-    background.shutdown(wait=False)
     with progress.stage("surface samples"):
         samples = sample_surface(scene, spacing)
         if surface_classes:
@@ -237,6 +236,11 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
                                          limits, margin))
     vis, rays = problem.matrices()
     reach = reach.with_witnesses(np.bincount(problem.pairs[1], minlength=len(samples)) > 0)
+    # The candidates' link graph depends on vis alone: built on the other core while HiGHS
+    # (which releases the GIL) solves the selection's LP, it is ready when linking starts.
+    links_job = background.submit(candidate_links, vis, problem.cands.positions, samples.points,
+                                  match) if match is not None else None
+    background.shutdown(wait=False)
 
     with progress.stage("view selection", unit="shot") as update:
         selection = select_views(vis, rays, min_views, min_triangulation_deg, lp_time_limit=lp_time_limit,
@@ -252,7 +256,8 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     sharpening = len(selection.chosen) - covering
     if match is not None and len(selection.chosen):
         with progress.stage("linking shots for SfM"):
-            selection.chosen = connect_shots(vis, problem.cands.positions, samples.points, selection.chosen, match)
+            selection.chosen = connect_shots(vis, problem.cands.positions, samples.points, selection.chosen, match,
+                                             links=links_job.result())
     chosen = selection.chosen
     if len(chosen) == 0:
         raise PlanningError("no safe viewpoint can image any part of the target: "

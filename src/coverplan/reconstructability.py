@@ -118,9 +118,11 @@ def candidate_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarra
 
 
 def connect_shots(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray, chosen: np.ndarray,
-                  rule: MatchRule = MatchRule(), max_added: int | None = None) -> np.ndarray:
+                  rule: MatchRule = MatchRule(), max_added: int | None = None,
+                  links: sp.csr_matrix | None = None) -> np.ndarray:
     """Add candidates (rows of ``vis``) to ``chosen`` until every chosen shot has
     ``rule.min_neighbours`` links and the links join all shots in one piece, or nothing helps.
+    ``links``: ``candidate_links(vis, positions, points, rule)`` if already worked out.
 
     Shots short of neighbours get, one at a time, the candidate linked to most of them; pieces
     left apart are joined along the shortest chain of linked candidates (Dijkstra over the
@@ -132,7 +134,7 @@ def connect_shots(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray,
     if len(chosen) < 2:
         return np.array(chosen, dtype=np.int64)
     budget = len(chosen) if max_added is None else int(max_added)
-    links = candidate_links(vis, positions, points, rule)
+    links = candidate_links(vis, positions, points, rule) if links is None else links
     n = links.shape[0]
     taken = np.zeros(n, dtype=bool)
     taken[chosen] = True
