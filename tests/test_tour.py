@@ -1,0 +1,64 @@
+"""The shot order: a permutation from the start, locally optimal for 2-opt and Or-opt moves,
+judged by brute force over every move rather than by the solver's own bookkeeping."""
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from coverplan.tour import nearest_neighbour, solve_tour, tour_length
+
+
+def _euclidean(points):
+    return np.linalg.norm(points[:, None] - points[None], axis=2)
+
+
+def _best_two_opt_gain(order, dist):
+    n = len(order)
+    best = 0.0
+    for i in range(1, n - 1):
+        for j in range(i + 1, n):
+            a, b, c, d = order[i - 1], order[i], order[j], order[(j + 1) % n]
+            best = min(best, dist[a, c] + dist[b, d] - dist[a, b] - dist[c, d])
+    return best
+
+
+def _best_move_gain(order, dist, length):
+    """The best change in tour length from moving a run of ``length`` stops (not the start)
+    between two other consecutive stops, either way round."""
+    n = len(order)
+    best = 0.0
+    for i in range(1, n - length + 1):
+        seg = list(order[i:i + length])
+        rest = list(order[:i]) + list(order[i + length:])
+        for pos in range(len(rest)):
+            for piece in (seg, seg[::-1]):
+                moved = rest[:pos + 1] + piece + rest[pos + 1:]
+                best = min(best, tour_length(moved, dist) - tour_length(order, dist))
+    return best
+
+
+def test_points_on_a_circle_are_visited_around_it():
+    angle = np.linspace(0.0, 2 * np.pi, 24, endpoint=False)
+    shuffled = np.random.default_rng(3).permutation(24)
+    points = np.column_stack([np.cos(angle), np.sin(angle)])[shuffled]
+    order = solve_tour(_euclidean(points))
+    around = np.argsort(np.arctan2(points[:, 1], points[:, 0]))
+    start = int(np.flatnonzero(around == 0)[0])
+    around = np.roll(around, -start)
+    assert order[0] == 0
+    assert np.array_equal(order, around) or np.array_equal(order[1:], around[1:][::-1])
+    assert np.isclose(tour_length(order, _euclidean(points)), 24 * 2 * np.sin(np.pi / 24))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(4, 40), st.integers(0, 2**31 - 1), st.booleans())
+def test_tour_is_a_local_optimum(n, seed, on_grid):
+    rng = np.random.default_rng(seed)
+    points = rng.integers(0, 4, (n, 3)).astype(float) if on_grid else rng.random((n, 3)) * [60, 40, 20]
+    dist = _euclidean(points)
+    order = solve_tour(dist)
+    assert order[0] == 0 and sorted(order.tolist()) == list(range(n))
+    assert tour_length(order, dist) <= tour_length(nearest_neighbour(dist), dist) + 1e-9
+    assert _best_two_opt_gain(order, dist) >= -1e-6
+    for length in (1, 2, 3):
+        assert _best_move_gain(order, dist, length) >= -1e-6
