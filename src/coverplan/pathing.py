@@ -90,39 +90,69 @@ def _lattice(clearance, limits, lo, hi, spacing: float, radius: float, far: floa
     return nodes, lower, upper, rows, cols
 
 
-def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float,
-                       cost_weight: float = 1.0, max_coarse_nodes: int = 50_000, progress=None) -> FlightGraph:
-    """Lattice + special points (start, shots) with safe, cost-weighted edges.
+@dataclass
+class Lattice:
+    """The safe lattice of a flight graph before the start and shots join it: fine nodes over
+    ``box`` at ``spacing``, then coarse nodes out to ``start``; each node's distance bounds to
+    the scene and distance to the target (for the cost); safe edges ``rows`` -> ``cols``."""
 
-    The lattice has ``spacing`` around the target and its shots; a start point outside that
-    box gets a coarser lattice (at least 3x the spacing) between it and the box, so a take-off
-    far away does not coarsen the paths between shots.
-    """
-    clearance = scene.clearance_model(limits.security)
-    radius = limits.security + margin
-    specials = np.asarray(specials, dtype=float).reshape(-1, 3)
-    far = radius + 2.0 * limits.d_opt + spacing * 2  # distances matter up to here (for the cost)
+    box: tuple[np.ndarray, np.ndarray]
+    start: np.ndarray
+    spacing: float
+    radius: float
+    nodes: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    target_d: np.ndarray
+    target_tree: cKDTree  # over points covering the target's surface
+    rows: np.ndarray
+    cols: np.ndarray
+    n_fine: int
+    coarse_step: float | None
+
+    def serves(self, box, start, spacing: float, radius: float) -> bool:
+        """Whether this lattice is the one ``build_lattice`` would make for these."""
+        return (self.spacing == spacing and self.radius == radius and np.array_equal(self.start, start)
+                and all(np.array_equal(a, b) for a, b in zip(self.box, box)))
+
+
+def lattice_box(scene, limits, shots, spacing: float) -> tuple[np.ndarray, np.ndarray]:
+    """The fine lattice's box: the target's and the shots' with room around them."""
+    shots = np.asarray(shots, dtype=float).reshape(-1, 3)
     lo, hi = scene.bounds("target")
     pad = limits.d_opt + 2 * spacing
-    lo = np.minimum(lo - pad, specials[1:].min(axis=0, initial=np.inf) - spacing)
-    hi = np.maximum(hi + pad, specials[1:].max(axis=0, initial=-np.inf) + spacing)
+    lo = np.minimum(lo - pad, shots.min(axis=0, initial=np.inf) - spacing)
+    hi = np.maximum(hi + pad, shots.max(axis=0, initial=-np.inf) + spacing)
     lo[2] = limits.lowest_floor(lo, hi)
     hi[2] = max(hi[2], lo[2] + spacing)
+    return lo, hi
+
+
+def build_lattice(scene, limits, box, start, *, margin: float, spacing: float,
+                  max_coarse_nodes: int = 50_000) -> Lattice:
+    """The lattice over ``box`` (``lattice_box``) at ``spacing``, and a coarser one (at least
+    3x the spacing) between it and a start outside it, so a take-off far away does not coarsen
+    the paths between shots."""
+    clearance = scene.clearance_model(limits.security)
+    radius = limits.security + margin
+    start = np.asarray(start, dtype=float).reshape(3)
+    far = radius + 2.0 * limits.d_opt + spacing * 2  # distances matter up to here (for the cost)
+    lo, hi = box
     nodes, lower, upper, rows, cols = _lattice(clearance, limits, lo, hi, spacing, radius, far)
     fine_lo, fine_hi = lo, lo + (np.floor((hi - lo) / spacing)) * spacing  # the outermost fine nodes
     n_fine = len(nodes)
-    coarse = None
-    if not ((specials[0] >= fine_lo) & (specials[0] <= fine_hi)).all():
-        c_lo = np.minimum(fine_lo, specials[0])
-        c_hi = np.maximum(fine_hi, specials[0])
-        c_hi[2] = max(c_hi[2], specials[0, 2] + spacing)
+    step = None
+    if not ((start >= fine_lo) & (start <= fine_hi)).all():
+        c_lo = np.minimum(fine_lo, start)
+        c_hi = np.maximum(fine_hi, start)
+        c_hi[2] = max(c_hi[2], start[2] + spacing)
         big = float(np.prod(c_hi - c_lo + 2 * spacing))
         step = max(3.0 * spacing, (big / max_coarse_nodes) ** (1.0 / 3.0))
         c_lo = c_lo - step
         c_hi = c_hi + step
         c_lo[2] = limits.lowest_floor(c_lo, c_hi)
-        coarse = _lattice(clearance, limits, c_lo, c_hi, step, radius, far, hole=(fine_lo, fine_hi))
-        c_nodes, c_lower, c_upper, c_rows, c_cols = coarse
+        c_nodes, c_lower, c_upper, c_rows, c_cols = _lattice(clearance, limits, c_lo, c_hi, step, radius, far,
+                                                             hole=(fine_lo, fine_hi))
         # Join the two lattices: each coarse node near the fine box to its nearest fine nodes.
         if len(c_nodes) and n_fine:
             gap = np.maximum(np.maximum(fine_lo - c_nodes, c_nodes - fine_hi), 0.0).max(axis=1)
@@ -141,6 +171,33 @@ def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float
         nodes = np.vstack([nodes, c_nodes])
         lower = np.concatenate([lower, c_lower])
         upper = np.concatenate([upper, c_upper])
+    target_tree = cKDTree(np.vstack([surface_cover(p.mesh, clearance.cover_edge)[0] for p in scene.targets]))
+    return Lattice((lo, hi), start, spacing, radius, nodes, lower, upper, _distance(target_tree, nodes, far),
+                   target_tree, rows, cols, n_fine, step)
+
+
+def _distance(tree: cKDTree, points, far: float) -> np.ndarray:
+    return np.minimum(tree.query(points, workers=-1, distance_upper_bound=far)[0], far)
+
+
+def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float,
+                       cost_weight: float = 1.0, max_coarse_nodes: int = 50_000, progress=None,
+                       lattice: Lattice | None = None) -> FlightGraph:
+    """Lattice + special points (start, shots) with safe, cost-weighted edges.
+
+    The lattice (``build_lattice``) has ``spacing`` around the target and its shots; a
+    ``lattice`` built beforehand is used when it is the one these specials ask for.
+    """
+    clearance = scene.clearance_model(limits.security)
+    radius = limits.security + margin
+    specials = np.asarray(specials, dtype=float).reshape(-1, 3)
+    far = radius + 2.0 * limits.d_opt + spacing * 2
+    box = lattice_box(scene, limits, specials[1:], spacing)
+    if lattice is None or not lattice.serves(box, specials[0], spacing, radius):
+        lattice = build_lattice(scene, limits, box, specials[0], margin=margin, spacing=spacing,
+                                max_coarse_nodes=max_coarse_nodes)
+    nodes, upper, rows, cols = lattice.nodes, lattice.upper, lattice.rows, lattice.cols
+    n_fine, step = lattice.n_fine, lattice.coarse_step
     if progress is not None:
         progress(1)
 
@@ -151,7 +208,7 @@ def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float
     extra_r, extra_c = [], []
     # Specials join the fine lattice; a start outside it joins the coarse one as well.
     groups = [(np.arange(len(specials)), 0, n_fine, reach)]
-    if coarse is not None:
+    if step is not None:
         groups.append((np.array([0]), n_fine, n_lat, 2.0 * step))
     for which, first, stop, r in groups:
         if stop <= first or not len(which):
@@ -173,8 +230,7 @@ def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float
         cols = np.concatenate([cols, ec[safe]])
 
     scene_d = np.concatenate([upper, np.minimum(clearance.kd_distance(specials, far)[0], far)])
-    target_tree = cKDTree(np.vstack([surface_cover(p.mesh, clearance.cover_edge)[0] for p in scene.targets]))
-    target_d = np.minimum(target_tree.query(points, workers=-1, distance_upper_bound=far)[0], far)
+    target_d = np.concatenate([lattice.target_d, _distance(lattice.target_tree, specials, far)])
     cost, k = node_costs(points, scene_d, target_d, limits.d_opt)
     length = np.linalg.norm(points[rows] - points[cols], axis=1)
     weight = length * (1.0 + cost_weight * (cost[rows] + cost[cols]) / (2.0 * k))

@@ -17,8 +17,8 @@ from .candidates import along_normals, facade_rings, from_probes, keep_safe, sta
 from .errors import ParameterError, PlanningError
 from .flights import Stops, flight_table, split_flights, transit_headings, waypoint_times
 from .flighttime import FlightModel
-from .pathing import (build_flight_graph, closure_hops, lattice_spacing, leg, shortcut,
-                      shot_distances)
+from .pathing import (build_flight_graph, build_lattice, closure_hops, lattice_box, lattice_spacing, leg,
+                      shortcut, shot_distances)
 from .progress import Progress
 from .reconstructability import (SHARP_INCIDENCE_DEG, MatchRule, add_sharp_views, best_incidence, candidate_links,
                                  connect_shots, incidence_deg, sharp_view_matrix, shot_links)
@@ -240,6 +240,13 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     # (which releases the GIL) solves the selection's LP, it is ready when linking starts.
     links_job = background.submit(candidate_links, vis, problem.cands.positions, samples.points,
                                   match) if match is not None else None
+    # So is the flight graph's lattice when its spacing cannot depend on which shots are chosen
+    # (build_flight_graph checks that the shots ask for this very lattice, or builds another).
+    h = _lattice_spacing(scene, problem.cands.positions, d_opt, security, lattice_spacing_m)
+    lattice_job = None
+    if h == _lattice_spacing(scene, np.zeros((0, 3)), d_opt, security, lattice_spacing_m):
+        lattice_job = background.submit(build_lattice, scene, limits, lattice_box(scene, limits, np.zeros((0, 3)), h),
+                                         start, margin=margin, spacing=h)
     background.shutdown(wait=False)
 
     with progress.stage("view selection", unit="shot") as update:
@@ -299,9 +306,10 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     shots = cands.subset(chosen)
     with progress.stage("lattice and Dijkstra"):
         specials = np.vstack([start, shots.positions])
-        region = np.ptp(np.vstack([scene.bounds("target"), shots.positions]), axis=0) + 2 * (d_opt + security)
-        h = lattice_spacing_m or lattice_spacing(d_opt, security, float(np.prod(region)), MAX_LATTICE_NODES)
-        fg = build_flight_graph(scene, limits, specials, margin=margin, spacing=h, cost_weight=cost_weight)
+        h = _lattice_spacing(scene, shots.positions, d_opt, security, lattice_spacing_m)
+        lattice = lattice_job.result() if lattice_job is not None else None
+        fg = build_flight_graph(scene, limits, specials, margin=margin, spacing=h, cost_weight=cost_weight,
+                                lattice=lattice)
         limit = 4.0 * max(d_opt, 3 * h) * (1.0 + 2.0 * cost_weight)
         closure, pred, direct = shot_distances(fg, len(specials), limit)
     flyable = np.isfinite(closure[0])
@@ -315,7 +323,8 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
         check = closer.check(chosen)
         shots = cands.subset(chosen)
         specials = np.vstack([start, shots.positions])
-        fg = build_flight_graph(scene, limits, specials, margin=margin, spacing=h, cost_weight=cost_weight)
+        fg = build_flight_graph(scene, limits, specials, margin=margin, spacing=h, cost_weight=cost_weight,
+                                lattice=lattice)
         closure, pred, direct = shot_distances(fg, len(specials), limit)
     check = closer.edge_of_hidden(check, chosen)
     uncovered = closer.uncovered(check, lost_path=not flyable.all())
@@ -378,6 +387,13 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
         route.metrics["lp_lower_bound_shots"] = lp_bound
     route.extra = {"notes": notes + list(scene.notes), "target_outline": _outline(scene)}
     return route
+
+
+def _lattice_spacing(scene, shots: np.ndarray, d_opt: float, security: float, given: float | None) -> float:
+    """The flight graph's lattice spacing: ``given``, or one that keeps the lattice over the
+    target and its shots within MAX_LATTICE_NODES."""
+    region = np.ptp(np.vstack([scene.bounds("target"), shots]), axis=0) + 2 * (d_opt + security)
+    return given or lattice_spacing(d_opt, security, float(np.prod(region)), MAX_LATTICE_NODES)
 
 
 def _link_new_shots(vis, positions, points, chosen, before: int, match: MatchRule, radius: float) -> np.ndarray:
