@@ -24,11 +24,14 @@ def true_distance(meshes, pts, chunk=2000):
     return d
 
 
-@pytest.fixture(params=["fcl", "vectorised"])
+@pytest.fixture(params=["fcl", "vectorised", "near"])
 def settle_with(request, monkeypatch):
-    """Unsure cases settled by one FCL query each, or by triangle_distance's exact distances."""
+    """Unsure cases settled by one FCL query each, by triangle_distance's exact distances to
+    every triangle, or to the triangles near each query (the scene's boxes are big triangles
+    among the sphere's small ones: NearTriangles tests those against everything)."""
     from coverplan import safety
     monkeypatch.setattr(safety, "VECTORISED_UP_TO_TRIANGLES", 10 ** 6 if request.param == "vectorised" else 0)
+    monkeypatch.setattr(safety, "LOCAL_BELOW_TRIANGLES", 10 ** 6 if request.param == "near" else 0)
     return request.param
 
 
@@ -88,6 +91,7 @@ def test_halving_segment_check_for_big_meshes(monkeypatch, exact):
     """The path big meshes take (KD bounds on halved pieces) agrees with the truth."""
     from coverplan import safety
     meshes = scene_meshes()
+    monkeypatch.setattr(safety, "LOCAL_BELOW_TRIANGLES", 0)
     model = ClearanceModel(meshes, rays=RayCaster(meshes), cover_edge=0.5)
     monkeypatch.setattr(safety, "HALVING_FROM_TRIANGLES", 0)
     rng = np.random.default_rng(7)

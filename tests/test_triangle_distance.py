@@ -7,6 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from coverplan.triangle_distance import (
+    NearTriangles,
     point_triangle_distance,
     segment_segment_distance,
     segment_triangle_distance,
@@ -104,3 +105,22 @@ def test_near_triangles_matches_the_distances():
             t = np.repeat(tris[k][None], len(a), axis=0)
             pt_truth |= point_triangle_distance(a, t[:, 0], t[:, 1], t[:, 2]) < radius
         np.testing.assert_array_equal(segments_near_triangles(a, a, tris, radius), pt_truth)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**31 - 1), st.sampled_from([0.3, 1.0, 3.0]))
+def test_near_triangles_index_agrees_with_every_triangle(seed, radius):
+    """The KD-tree of triangle centres never drops a triangle that comes within the radius:
+    a scan-like sheet of small triangles, a few long ones across it, segments of all lengths
+    and points, against segments_near_triangles over every triangle."""
+    rng = np.random.default_rng(seed)
+    corner = rng.uniform(-10, 10, size=(400, 1, 3))
+    small = corner + rng.normal(size=(400, 3, 3)) * 0.4
+    big = rng.uniform(-12, 12, size=(5, 3, 3))
+    index = NearTriangles(np.vstack([small, big]))
+    assert 0 < len(index.big) <= 20 and len(index.small) >= 380
+    a = rng.uniform(-12, 12, size=(300, 3))
+    b = a + rng.normal(size=(300, 3)) * rng.choice([0.1, 2.0, 8.0], size=(300, 1))
+    tris = np.vstack([small, big])
+    np.testing.assert_array_equal(index(a, b, radius, chunk=64), segments_near_triangles(a, b, tris, radius))
+    np.testing.assert_array_equal(index(a, a, radius), segments_near_triangles(a, a, tris, radius))

@@ -16,7 +16,7 @@ import fcl
 import numpy as np
 from scipy.spatial import cKDTree
 
-from .triangle_distance import segments_near_triangles
+from .triangle_distance import NearTriangles, segments_near_triangles
 
 
 def _bvh(vertices, faces) -> fcl.CollisionObject:
@@ -89,6 +89,11 @@ HALVING_FROM_TRIANGLES = 100_000
 # (triangle_distance) instead of one FCL query each: 1.5x faster at 92 triangles, even at
 # about 128, and 7x slower at 2,048, where testing every triangle's box costs most.
 VECTORISED_UP_TO_TRIANGLES = 100
+# Above that, and below LOCAL_BELOW_TRIANGLES, an unsure point is tested against only the
+# triangles near it (NearTriangles), still vectorised: on a 50,000-triangle building the
+# planner's point queries took 0.18 s instead of 0.58 s with one FCL query each, with the same
+# answers. Segments keep FCL: a lattice edge's reach holds hundreds of triangles (2.4x slower).
+LOCAL_BELOW_TRIANGLES = HALVING_FROM_TRIANGLES
 
 
 class ClearanceModel:
@@ -125,6 +130,8 @@ class ClearanceModel:
         self._distance_request = fcl.DistanceRequest()
         self._vectorised = 0 < len(self._faces) <= VECTORISED_UP_TO_TRIANGLES
         self._triangles = self._vertices[self._faces] if self._vectorised else None
+        self._local = VECTORISED_UP_TO_TRIANGLES < len(self._faces) < LOCAL_BELOW_TRIANGLES
+        self._near_index = None
 
     @property
     def _all(self):
@@ -132,6 +139,13 @@ class ClearanceModel:
         if self._bvh_all is None and len(self._faces):
             self._bvh_all = _bvh(self._vertices, self._faces)
         return self._bvh_all
+
+    def _near(self, starts, ends, radius: float) -> np.ndarray:
+        """Per segment: does a triangle come closer than ``radius`` (``NearTriangles``, built on
+        first use)."""
+        if self._near_index is None:
+            self._near_index = NearTriangles(self._vertices[self._faces])
+        return self._near_index(starts, ends, radius)
 
     # -- bounds -------------------------------------------------------------------
     def kd_distance(self, points, limit: float = np.inf) -> tuple[np.ndarray, np.ndarray]:
@@ -165,6 +179,8 @@ class ClearanceModel:
         unsure = np.flatnonzero(~ok & (upper >= radius))
         if len(unsure) and self._vectorised:
             ok[unsure] = ~segments_near_triangles(points[unsure], points[unsure], self._triangles, radius)
+        elif len(unsure) and self._local:
+            ok[unsure] = ~self._near(points[unsure], points[unsure], radius)
         elif len(unsure) and self._all is not None:
             ball = fcl.CollisionObject(fcl.Sphere(float(radius)), fcl.Transform())
             request = fcl.CollisionRequest()

@@ -3,7 +3,8 @@
 On scenes of up to a few hundred triangles these settle the clearance questions the KD-tree
 bound leaves open (``safety.ClearanceModel``) several times faster than one FCL query per
 point or segment: a box test drops most (query, triangle) pairs, a plane test most of the
-rest, and the exact distance runs on what remains.
+rest, and the exact distance runs on what remains. On bigger scenes ``NearTriangles`` pairs
+each point only with the triangles near it.
 
 A segment's distance to a triangle is 0 where it crosses it, else the least of its
 endpoints' distances to the triangle and its distances to the triangle's three edges.
@@ -11,9 +12,13 @@ endpoints' distances to the triangle and its distances to the triangle's three e
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
+from scipy.spatial import cKDTree
 
 _TINY = 1e-300
+BIG_TRIANGLE = 4.0  # x the median triangle's size: tested against every segment (NearTriangles)
 
 
 def _dot(u, v):
@@ -86,6 +91,29 @@ def segment_triangle_distance(p, q, a, b, c) -> np.ndarray:
     return np.where(segment_crosses_triangle(p, q, a, b, c), 0.0, d)
 
 
+def _flat_normals(triangles):
+    normal = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    length = np.linalg.norm(normal, axis=1)
+    flat = length > _TINY
+    normal[flat] /= length[flat, None]
+    return normal, flat
+
+
+def _pairs_near(starts, ends, points: bool, triangles, normal, flat, i, j, radius: float) -> np.ndarray:
+    """The segments ``i`` that triangle ``j`` comes closer to than ``radius`` (pairs given)."""
+    a = triangles[j, 0]
+    # Both ends farther than the radius on one side of the triangle's plane: clear of it.
+    h1, h2 = _dot(starts[i] - a, normal[j]), _dot(ends[i] - a, normal[j])
+    keep = ~flat[j] | ~(((h1 >= radius) & (h2 >= radius)) | ((h1 <= -radius) & (h2 <= -radius)))
+    i, j = i[keep], j[keep]
+    if len(i) == 0:
+        return i
+    a, b, c = triangles[j, 0], triangles[j, 1], triangles[j, 2]
+    d = (point_triangle_distance(starts[i], a, b, c) if points else
+         segment_triangle_distance(starts[i], ends[i], a, b, c))
+    return i[d < radius]
+
+
 def segments_near_triangles(starts, ends, triangles, radius: float, max_pairs: int = 2_000_000) -> np.ndarray:
     """Per segment (``starts`` == ``ends`` for points): does some triangle (``(m, 3, 3)``) come
     closer than ``radius``?"""
@@ -96,10 +124,7 @@ def segments_near_triangles(starts, ends, triangles, radius: float, max_pairs: i
     if len(starts) == 0 or len(triangles) == 0:
         return near
     tri_lo, tri_hi = triangles.min(axis=1), triangles.max(axis=1)
-    normal = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
-    length = np.linalg.norm(normal, axis=1)
-    flat = length > _TINY
-    normal[flat] /= length[flat, None]
+    normal, flat = _flat_normals(triangles)
     points = starts is ends or np.array_equal(starts, ends)
     seg_lo = np.minimum(starts, ends) - radius
     seg_hi = np.maximum(starts, ends) + radius
@@ -108,15 +133,42 @@ def segments_near_triangles(starts, ends, triangles, radius: float, max_pairs: i
         rows = slice(lo, lo + step)
         boxes = ((seg_lo[rows, None, :] <= tri_hi[None]) & (seg_hi[rows, None, :] >= tri_lo[None])).all(axis=2)
         i, j = np.nonzero(boxes)
-        i = i + lo
-        a = triangles[j, 0]
-        # Both ends farther than the radius on one side of the triangle's plane: clear of it.
-        h1, h2 = _dot(starts[i] - a, normal[j]), _dot(ends[i] - a, normal[j])
-        keep = ~flat[j] | ~(((h1 >= radius) & (h2 >= radius)) | ((h1 <= -radius) & (h2 <= -radius)))
-        i, j = i[keep], j[keep]
-        if len(i):
-            a, b, c = triangles[j, 0], triangles[j, 1], triangles[j, 2]
-            d = (point_triangle_distance(starts[i], a, b, c) if points else
-                 segment_triangle_distance(starts[i], ends[i], a, b, c))
-            near[i[d < radius]] = True
+        near[_pairs_near(starts, ends, points, triangles, normal, flat, i + lo, j, radius)] = True
     return near
+
+
+class NearTriangles:
+    """``segments_near_triangles`` for thousands of triangles: a segment is tested only against
+    the triangles whose bounding balls come within reach of its own (a KD-tree of their
+    centres). Triangles much bigger than most (a long wall among a scan's small ones) would
+    make every reach big, so they are tested against every segment, box test first."""
+
+    def __init__(self, triangles):
+        self.triangles = np.asarray(triangles, dtype=float).reshape(-1, 3, 3)
+        centre = self.triangles.mean(axis=1)
+        size = np.linalg.norm(self.triangles - centre[:, None], axis=2).max(axis=1)
+        small = size <= (BIG_TRIANGLE * float(np.median(size)) if len(size) else 0.0)
+        self.small = self.triangles[small]
+        self.small_size = float(size[small].max()) if small.any() else 0.0
+        self.tree = cKDTree(centre[small]) if small.any() else None
+        self.normal, self.flat = _flat_normals(self.small)
+        self.big = self.triangles[~small]
+
+    def __call__(self, starts, ends, radius: float, chunk: int = 4096) -> np.ndarray:
+        starts = np.asarray(starts, dtype=float).reshape(-1, 3)
+        ends = np.asarray(ends, dtype=float).reshape(-1, 3)
+        near = segments_near_triangles(starts, ends, self.big, radius)
+        if self.tree is None or len(starts) == 0:
+            return near
+        points = starts is ends or np.array_equal(starts, ends)
+        middle = (starts + ends) / 2.0
+        # within radius of the segment and of a triangle's ball: within this of its centre
+        reach = radius + np.linalg.norm(ends - starts, axis=1) / 2.0 + self.small_size
+        for lo in range(0, len(starts), chunk):
+            found = self.tree.query_ball_point(middle[lo:lo + chunk], reach[lo:lo + chunk] * (1 + 1e-9) + 1e-9,
+                                               return_sorted=False)
+            counts = np.fromiter(map(len, found), dtype=np.int64, count=len(found))
+            j = np.fromiter(itertools.chain.from_iterable(found), dtype=np.int64, count=int(counts.sum()))
+            i = np.repeat(np.arange(lo, lo + len(found)), counts)
+            near[_pairs_near(starts, ends, points, self.small, self.normal, self.flat, i, j, radius)] = True
+        return near
