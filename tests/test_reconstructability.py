@@ -8,8 +8,8 @@ import scipy.sparse as sp
 from conftest import box
 
 from coverplan import evaluate, get_camera, plan
-from coverplan.reconstructability import (MatchRule, add_sharp_views, connect_shots, graph_summary, incidence_deg,
-                                         sharp_targets, shot_links)
+from coverplan.reconstructability import (MatchRule, add_sharp_views, candidate_links, connect_shots, graph_summary,
+                                         incidence_deg, sharp_targets, shot_links)
 from coverplan.scene import scene_from_meshes
 from coverplan.visibility import has_pair_between, widest_pair_angle
 
@@ -54,6 +54,26 @@ def test_links_need_overlap_and_a_narrow_angle():
     assert not links[0, 3]  # same surface, but 70 deg apart: SfM would not match them
     s = graph_summary(links, MatchRule(min_neighbours=1))
     assert s["components"] == 3 and s["largest_component"] == 2 and s["shots_short_of_neighbours"] == 2
+
+
+def test_candidate_links_of_some_rows_are_the_whole_graphs():
+    """Links worked out for a subset of cameras (the planner's repair does so for its new
+    candidates) are exactly the whole graph's links at those cameras, and agree with the
+    dense shot_links."""
+    rng = np.random.default_rng(2)
+    pts = _wall_samples(81)
+    centres = rng.uniform(0, 40, 60)
+    positions = np.column_stack([rng.uniform(6, 12, 60), centres + rng.normal(0, 3, 60), rng.uniform(0, 4, 60)])
+    vis = sp.csr_matrix(np.array([_sees(pts, c, w) for c, w in zip(centres, rng.uniform(3, 8, 60))], dtype=bool))
+    rule = MatchRule(max_pair_deg=35, min_overlap=0.3)
+    whole = candidate_links(vis, positions, pts, rule)
+    assert (whole.toarray().astype(bool) == shot_links(vis.astype(float), positions, pts, rule)).all()
+    assert 100 < whole.nnz < 60 * 59
+    for rows in (np.arange(0, 60, 7), np.array([3]), rng.choice(60, 30, replace=False)):
+        part = candidate_links(vis, positions, pts, rule, rows=rows).toarray()
+        touches = np.zeros((60, 60), dtype=bool)
+        touches[rows] = touches[:, rows] = True
+        assert (part == (whole.toarray() * touches)).all()
 
 
 def test_connect_adds_the_bridging_shot_and_nothing_useless():

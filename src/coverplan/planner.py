@@ -11,6 +11,7 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+import scipy.sparse as sp
 
 from .camera import Camera, check_positive
 from .candidates import along_normals, facade_rings, from_probes, keep_safe, standoff, under_overhangs
@@ -285,7 +286,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
                 # strips that hundreds of candidates see, which makes the pair products explode.
                 coarse = len(samples)
                 chosen = _link_new_shots(vis[:, :coarse], problem.cands.positions, samples.points, chosen,
-                                         before, match, 0.5 * d_opt)
+                                         before, match, 0.5 * d_opt, known=links_job.result())
             check = closer.check(chosen)
             history.append(check.coverage_pct)
         fine_sharp = 0
@@ -294,7 +295,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
             chosen = closer.sharpen(chosen, match.sharp_views)
             if len(chosen) > before:  # sharpen leaves the problem as it was: vis still holds
                 chosen = _link_new_shots(vis[:, :len(samples)], problem.cands.positions, samples.points, chosen,
-                                         before, match, 0.5 * d_opt)
+                                         before, match, 0.5 * d_opt, known=links_job.result())
                 fine_sharp = len(chosen) - before
                 check = closer.check(chosen)
         complete = len(chosen)
@@ -396,16 +397,25 @@ def _lattice_spacing(scene, shots: np.ndarray, d_opt: float, security: float, gi
     return given or lattice_spacing(d_opt, security, float(np.prod(region)), MAX_LATTICE_NODES)
 
 
-def _link_new_shots(vis, positions, points, chosen, before: int, match: MatchRule, radius: float) -> np.ndarray:
+def _link_new_shots(vis, positions, points, chosen, before: int, match: MatchRule, radius: float,
+                    known=None) -> np.ndarray:
     """connect_shots after a repair round, over the chosen shots and the candidates within
-    ``radius`` of the new ones (linking over every candidate again costs seconds)."""
+    ``radius`` of the new ones (linking over every candidate again costs seconds). ``known``:
+    the links among the first candidates (``candidate_links``), which are not worked out again."""
     from scipy.spatial import cKDTree
 
     if len(chosen) == before:
         return chosen
     near = np.isfinite(cKDTree(positions[chosen[before:]]).query(positions, distance_upper_bound=radius)[0])
     pool = np.union1d(chosen, np.flatnonzero(near))
-    linked = connect_shots(vis[pool], positions[pool], points, np.searchsorted(pool, chosen), match)
+    links = None
+    if known is not None:
+        old = np.flatnonzero(pool < known.shape[0])
+        links = candidate_links(vis[pool], positions[pool], points, match, rows=np.flatnonzero(pool >= known.shape[0]))
+        among = known[pool[old]][:, pool[old]].tocoo()
+        links = (links + sp.csr_matrix((among.data, (old[among.row], old[among.col])), shape=links.shape)).tocsr()
+        links.sum_duplicates()
+    linked = connect_shots(vis[pool], positions[pool], points, np.searchsorted(pool, chosen), match, links=links)
     return pool[linked]
 
 
