@@ -26,6 +26,7 @@ from .reconstructability import (SHARP_INCIDENCE_DEG, MatchRule, add_sharp_views
 from .reachability import ViewLimits, reachability, scene_limits
 from .route import Route, polyline_length
 from .redundancy import CheckViews, SharpViews, drop_redundant
+from .relink import relink_on_check
 from .repair import MAX_ROUNDS, TARGET_PCT, CoverProblem, GapCloser, check_samples, planner_check_spacing
 from .selection import select_views
 from .surface import default_spacing, sample_surface
@@ -303,6 +304,12 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
             chosen = _drop_redundant(problem, closer, chosen, check.covered, len(samples), vis, match)
             check = closer.kept(check, chosen)
         dropped = complete - len(chosen)
+        if match is not None:
+            kept = len(chosen)
+            chosen = relink_on_check(problem, closer, chosen, match, vis[:, :len(samples)])
+            if len(chosen) > kept:
+                check = closer.check(chosen)
+        check_links = len(chosen) - complete + dropped
     cands = problem.cands
     shots = cands.subset(chosen)
     with progress.stage("lattice and Dijkstra"):
@@ -364,6 +371,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
         "linking_shots": int(max(len(selection.chosen) - covering - sharpening, 0)),
         "repair_shots": int(max(complete - len(selection.chosen) - fine_sharp, 0)),
         "redundant_shots_dropped": int(dropped),
+        "check_link_shots": int(check_links),
         "repair_rounds": len(history) - 1,
         "check_coverage_history_pct": history,
         "path_length_m": route.path_length,

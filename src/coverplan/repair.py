@@ -363,6 +363,17 @@ class GapCloser:
         inc = incidence_deg(cam, pt, self.p.cands.positions, sub.points, sub.normals)
         return add_sharp_views(cam, pt, inc, len(self.p.cands), sub.area, chosen, views=views)
 
+    @property
+    def tree(self) -> cKDTree:
+        """A KD-tree of the check samples' points."""
+        return self._tree
+
+    def all_views(self) -> tuple[np.ndarray, np.ndarray]:
+        """(candidate, check sample) of every view the checks so far found, firm or not: what
+        the evaluator would count."""
+        who, pt, _firm = self._views
+        return who, pt
+
     def firm_views(self) -> tuple[np.ndarray, np.ndarray]:
         """(candidate, check sample) of every view the checks so far counted."""
         who, pt, firm = self._views
