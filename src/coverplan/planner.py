@@ -368,10 +368,10 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
         "shots": int(route.shot.sum()),
         "selected_views": int(len(chosen)),
         "sharp_view_shots": int(sharpening + fine_sharp),
-        "linking_shots": int(max(len(selection.chosen) - covering - sharpening, 0)),
+        "linking_shots": int(max(len(selection.chosen) - covering - sharpening, 0) + check_links),
         "repair_shots": int(max(complete - len(selection.chosen) - fine_sharp, 0)),
         "redundant_shots_dropped": int(dropped),
-        "check_link_shots": int(check_links),
+        "check_link_shots": int(check_links),  # of the linking shots: those the check samples' links asked
         "repair_rounds": len(history) - 1,
         "check_coverage_history_pct": history,
         "path_length_m": route.path_length,
