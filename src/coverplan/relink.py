@@ -58,5 +58,11 @@ def relink_on_check(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse
     pool = np.concatenate([chosen, extra])
     more = sp.csr_matrix((np.ones(len(cam)), (cam, pt)), shape=(len(extra), len(fine)))
     vis = sp.vstack([vis, more]).tocsr()
-    linked = connect_shots(vis, positions[pool], fine.points, np.arange(len(chosen)), rule)
+    # The shots' links among themselves are known; only the new candidates' are worked out.
+    n = len(pool)
+    known = links.tocoo()
+    every = (candidate_links(vis, positions[pool], fine.points, rule, rows=np.arange(len(chosen), n))
+             + sp.csr_matrix((known.data, (known.row, known.col)), shape=(n, n))).tocsr()
+    every.sum_duplicates()
+    linked = connect_shots(vis, positions[pool], fine.points, np.arange(len(chosen)), rule, links=every)
     return pool[linked]
