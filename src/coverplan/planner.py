@@ -11,7 +11,6 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
-import scipy.sparse as sp
 
 from .camera import Camera, check_positive
 from .candidates import along_normals, facade_rings, from_probes, keep_safe, standoff, under_overhangs
@@ -22,7 +21,7 @@ from .pathing import (build_flight_graph, build_lattice, closure_hops, lattice_b
                       shortcut, shot_distances)
 from .progress import Progress
 from .reconstructability import (SHARP_INCIDENCE_DEG, MatchRule, add_sharp_views, best_incidence, candidate_links,
-                                 connect_shots, incidence_deg, sharp_view_matrix, shot_links)
+                                 connect_shots, extend_links, incidence_deg, sharp_view_matrix, shot_links)
 from .reachability import ViewLimits, reachability, scene_limits
 from .route import Route, polyline_length
 from .redundancy import CheckViews, SharpViews, drop_redundant
@@ -304,12 +303,13 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
             chosen = _drop_redundant(problem, closer, chosen, check.covered, len(samples), vis, match)
             check = closer.kept(check, chosen)
         dropped = complete - len(chosen)
+        check_links = 0
         if match is not None:
             kept = len(chosen)
             chosen = relink_on_check(problem, closer, chosen, match, vis[:, :len(samples)])
-            if len(chosen) > kept:
+            check_links = len(chosen) - kept
+            if check_links:
                 check = closer.check(chosen)
-        check_links = len(chosen) - complete + dropped
     cands = problem.cands
     shots = cands.subset(chosen)
     with progress.stage("lattice and Dijkstra"):
@@ -418,11 +418,8 @@ def _link_new_shots(vis, positions, points, chosen, before: int, match: MatchRul
     pool = np.union1d(chosen, np.flatnonzero(near))
     links = None
     if known is not None:
-        old = np.flatnonzero(pool < known.shape[0])
-        links = candidate_links(vis[pool], positions[pool], points, match, rows=np.flatnonzero(pool >= known.shape[0]))
-        among = known[pool[old]][:, pool[old]].tocoo()
-        links = (links + sp.csr_matrix((among.data, (old[among.row], old[among.col])), shape=links.shape)).tocsr()
-        links.sum_duplicates()
+        old = pool[pool < known.shape[0]]  # pool is sorted: these come first
+        links = extend_links(vis[pool], positions[pool], points, match, known[old][:, old])
     linked = connect_shots(vis[pool], positions[pool], points, np.searchsorted(pool, chosen), match, links=links)
     return pool[linked]
 

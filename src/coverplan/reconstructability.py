@@ -126,6 +126,19 @@ def candidate_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarra
     return sp.csr_matrix((np.ones(2 * len(r)), (np.concatenate([r, c]), np.concatenate([c, r]))), shape=(n, n))
 
 
+def extend_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray, rule: MatchRule,
+                 known: sp.csr_matrix) -> sp.csr_matrix:
+    """``candidate_links`` of every row of ``vis`` when ``known`` holds those among its first
+    ``known.shape[0]`` rows: only the other rows' links are worked out (the same graph, as a
+    link depends on its two rows alone)."""
+    n = vis.shape[0]
+    old = known.tocoo()
+    links = (candidate_links(vis, positions, points, rule, rows=np.arange(known.shape[0], n))
+             + sp.csr_matrix((old.data, (old.row, old.col)), shape=(n, n))).tocsr()
+    links.sum_duplicates()
+    return links
+
+
 def connect_shots(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray, chosen: np.ndarray,
                   rule: MatchRule = MatchRule(), max_added: int | None = None,
                   links: sp.csr_matrix | None = None) -> np.ndarray:

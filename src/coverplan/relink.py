@@ -18,7 +18,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-from .reconstructability import MatchRule, candidate_links, connect_shots
+from .reconstructability import MatchRule, candidate_links, connect_shots, extend_links
 from .visibility import imaging_pairs
 
 
@@ -58,11 +58,6 @@ def relink_on_check(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse
     pool = np.concatenate([chosen, extra])
     more = sp.csr_matrix((np.ones(len(cam)), (cam, pt)), shape=(len(extra), len(fine)))
     vis = sp.vstack([vis, more]).tocsr()
-    # The shots' links among themselves are known; only the new candidates' are worked out.
-    n = len(pool)
-    known = links.tocoo()
-    every = (candidate_links(vis, positions[pool], fine.points, rule, rows=np.arange(len(chosen), n))
-             + sp.csr_matrix((known.data, (known.row, known.col)), shape=(n, n))).tocsr()
-    every.sum_duplicates()
+    every = extend_links(vis, positions[pool], fine.points, rule, links)  # the shots' own links are known
     linked = connect_shots(vis, positions[pool], fine.points, np.arange(len(chosen)), rule, links=every)
     return pool[linked]

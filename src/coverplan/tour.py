@@ -2,8 +2,9 @@
 
 Nearest neighbour, then 2-opt and Or-opt moves until neither improves, the gains of a block
 of moves evaluated at once with numpy (the moves taken are those of a row-by-row search).
-Deterministic: the same matrix gives the same tour. (OR-Tools' routing solver was measured first: 8.6 s for a 500-stop tour with
-plain descent, and time-limited guided local search gives run-to-run different routes.)
+Deterministic: the same matrix gives the same tour. (OR-Tools' routing solver was measured
+first: 8.6 s for a 500-stop tour with plain descent, and time-limited guided local search
+gives run-to-run different routes.)
 """
 
 from __future__ import annotations
