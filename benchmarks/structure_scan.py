@@ -74,3 +74,50 @@ def structure_scan(scene, camera, gsd: float, security: float, start, front_over
                   params, frame=scene.frame)
     route.metrics = {"shots": int(np.sum(shot)), "layers": int(len(heights)), "scan_distance_m": distance}
     return route
+
+
+def roof_grid(scene, camera, gsd: float, security: float, front_overlap: float = 0.7, side_overlap: float = 0.7):
+    """A nadir grid over the target's footprint, as QGroundControl's Survey flies it: lanes along
+    the footprint's longer side, photos spaced by the image footprint times (1 - overlap), at the
+    height above the roof's top where the GSD holds (the planner's standoff), never below the
+    security distance. Returns the photo positions (n, 3) in flight order."""
+    d_opt = camera.optimal_distance(gsd)
+    limits = ViewLimits(security, d_opt, 70.0, scene.ground_z + security, (-90.0, 30.0), camera.vfov_deg, scene.ground_z)
+    distance = max(standoff(camera, limits, safety_margin(security)), security + safety_margin(security))
+    width, height = camera.footprint(distance)
+    base = footprint(scene)
+    area = base.buffer(0.5 * min(width, height))
+    x0, y0, x1, y1 = area.bounds
+    z = scene.bounds("target")[1, 2] + distance
+    along_x = (x1 - x0) >= (y1 - y0)
+    # Image width across the lanes (heading along the lane: the long side sweeps sideways).
+    lane_step, photo_step = width * (1.0 - side_overlap), height * (1.0 - front_overlap)
+    if along_x:
+        lanes = np.arange(y0, y1 + lane_step, lane_step)
+        stops = np.arange(x0, x1 + photo_step, photo_step)
+    else:
+        lanes = np.arange(x0, x1 + lane_step, lane_step)
+        stops = np.arange(y0, y1 + photo_step, photo_step)
+    out = []
+    for k, lane in enumerate(lanes):
+        run = stops if k % 2 == 0 else stops[::-1]
+        pts = np.column_stack([run, np.full(len(run), lane)]) if along_x else np.column_stack([np.full(len(run), lane), run])
+        keep = shapely.contains_xy(area, pts[:, 0], pts[:, 1])
+        out.extend(np.column_stack([pts[keep], np.full(int(keep.sum()), z)]))
+    return np.array(out).reshape(-1, 3), (90.0 if along_x else 0.0)
+
+
+def scan_with_roof_grid(scene, camera, gsd: float, security: float, start, overlap: float = 0.7) -> Route:
+    """The Structure Scan, then a nadir roof grid at the same overlaps: what surveyors fly when
+    the roof matters. The grid is flown after the top layer, then back to the start."""
+    scan = structure_scan(scene, camera, gsd, security, start, overlap, overlap)
+    grid, lane_heading = roof_grid(scene, camera, gsd, security, overlap, overlap)
+    pos = np.vstack([scan.positions[:-1], grid, scan.positions[-1:]])
+    shot = np.concatenate([scan.shot[:-1], np.ones(len(grid), bool), [False]])
+    heading = np.concatenate([scan.heading_deg[:-1], np.full(len(grid), lane_heading), [0.0]])
+    pitch = np.concatenate([scan.pitch_deg[:-1], np.full(len(grid), -90.0), [0.0]])
+    legs = ["initial"] + ["coverage"] * (len(pos) - 2) + ["final"]
+    params = dict(scan.params, rule="structure-scan+roof-grid")
+    route = Route(pos, shot, heading, pitch, legs, camera, params, frame=scene.frame)
+    route.metrics = dict(scan.metrics, shots=int(shot.sum()), roof_grid_shots=int(len(grid)))
+    return route

@@ -215,6 +215,11 @@ def cmd_plan(args) -> int:
     if set(formats) & GEOGRAPHIC_FORMATS and not (scene.crs or scene.geodetic_origin):
         raise ParameterError(f"{', '.join(sorted(set(formats) & GEOGRAPHIC_FORMATS))} export needs a georeference: "
                              "the input has no CRS; pass --crs EPSG:XXXX or --geo-origin LAT LON H")
+    if args.strict:
+        from .drones import security_shortfall
+        shortfall = security_shortfall(args.security, _drone(args))
+        if shortfall:
+            raise ParameterError(f"{shortfall} (--strict)")
     # --start is in the input models' coordinates, like the meshes: move it with them.
     start = None if args.start is None else scene.to_local(args.start)
     route = plan(scene, camera, start=start, progress=progress, **_plan_options(args))
@@ -249,7 +254,7 @@ def _plan_options(args) -> dict:
                 max_incidence_deg=args.max_incidence_deg, min_altitude=args.min_altitude, spacing=args.spacing,
                 gimbal_pitch_range_deg=_gimbal(args), drone=_drone(args), flight_model=_flight_model(args),
                 max_flight_min=args.max_flight_min,
-                lp_time_limit=args.lp_time_limit, surface_classes=args.only,
+                lp_time_limit=args.lp_time_limit, surface_classes=args.only, pose_margin=args.margin,
                 max_memory=None if args.max_memory_gb is None
                 else check_positive("--max-memory-gb", args.max_memory_gb) * 1e9)
 
@@ -358,7 +363,11 @@ def _simulate(route, scene, out_dir, args) -> int:
     if out.exists() and not out.is_dir():
         raise ParameterError(f"{out} exists and is not a folder")
     progress = Progress(bars=not getattr(args, "quiet", False), verbose=getattr(args, "verbose", False))
-    sim = simulate(route, scene, out, width=width, threads=args.threads, progress=progress)
+    if args.draws < 1:
+        raise ParameterError(f"--draws must be at least 1, got {args.draws}")
+    sim = simulate(route, scene, out, conditions=args.conditions, draws=args.draws, texture=args.texture,
+                   matching=args.matching,
+                   width=width, threads=args.threads, progress=progress)
     sim.save(out / "simulation.json")
     if getattr(args, "json", False):
         print(json.dumps(sim.to_dict(), indent=1, default=float))
@@ -374,6 +383,17 @@ def _simulate(route, scene, out_dir, args) -> int:
 def _add_simulate_args(p):
     p.add_argument("--photo-width", type=int, default=1024, metavar="PX",
                    help="width of the rendered photos (field of view kept; default 1024)")
+    p.add_argument("--conditions", default="field", choices=("ideal", "field", "harsh"),
+                   help="ideal: the planned poses, fixed light; field (default): the drone profile's GNSS/RTK, "
+                        "heading and gimbal error, moving sun and shadows, clouds, exposure, noise, blur; "
+                        "harsh: field plus plaster, brick, window grids, glass and roof tiles")
+    p.add_argument("--draws", type=int, default=3, metavar="N",
+                   help="flights drawn under the conditions; the verdict is the worst (default 3)")
+    p.add_argument("--matching", default="spatial", choices=("spatial", "covisible"),
+                   help="pairs matched in flights over 80 photos: spatial (default, COLMAP's spatial matcher on the "
+                        "photos' GNSS tags, as you would run it) or covisible (pairs whose rendered views overlap)")
+    p.add_argument("--texture", default="noise", choices=("noise", "cells"),
+                   help="texture family under field/harsh conditions: noise (value noise) or cells (cellular stone)")
     p.add_argument("--threads", type=int, default=-1, help="threads for SfM (default: all cores)")
 
 
@@ -503,6 +523,9 @@ def _add_planning_args(p):
     p.add_argument("--rule", choices=["sfm", "thesis"], default="sfm",
                    help="sfm (default): plan for a reconstruction (docs/reconstruction.md); "
                         "thesis: 2 views 5 deg apart, the thesis's rule, for comparison")
+    p.add_argument("--margin", choices=["field", "none"], default="field",
+                   help="field (default): judge frames and view-pair angles with the drone's own position, heading "
+                        "and gimbal error (docs/reconstruction.md); none: the rules as given")
     p.add_argument("--min-views", type=int, default=None, help="views per surface point (default 3; thesis rule 2)")
     p.add_argument("--min-triangulation-deg", type=float, default=5.0)
     p.add_argument("--max-pair-deg", type=float, default=None, metavar="DEG",
@@ -593,6 +616,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--report", default=None, metavar="REPORT.html", help="also write the HTML flight report")
     p.add_argument("--plot", default=None, metavar="PREFIX", help="also write PNG figures PREFIX_*.png")
     p.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    p.add_argument("--strict", action="store_true",
+                   help="refuse a security distance below the drone's position error bound plus 1 m; "
+                        "with --simulate, exit 1 unless the photos reconstruct")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summary")
     p.add_argument("-v", "--verbose", action="store_true", help="log each stage's time")
     p.add_argument("--simulate", default=None, metavar="DIR",

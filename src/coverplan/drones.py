@@ -16,6 +16,48 @@ from .errors import ParameterError
 from .flighttime import FlightModel
 
 RESERVE = 0.30  # of the rated flight time; DJI apps warn at 30 % battery by default
+# Exposure time a survey photo takes in daylight: our working assumption (mapping guides ask
+# for 1/500 s or shorter to keep blur below a pixel); the makers give only the shutter's range.
+SURVEY_SHUTTER_S = 1.0 / 500.0
+
+
+@dataclass(frozen=True)
+class PositionAccuracy:
+    """How far from the commanded point the drone really is, as the maker's hover accuracy
+    bounds (metres, +-) for the positioning it flies with (``source``: "gnss" or "rtk")."""
+
+    horizontal_m: float
+    vertical_m: float
+    source: str = "gnss"
+
+    def __post_init__(self):
+        for name in ("horizontal_m", "vertical_m"):
+            v = float(getattr(self, name))
+            if not v >= 0.0:
+                raise ParameterError(f"position accuracy {name} must be >= 0, got {v!r}")
+        if self.source not in ("gnss", "rtk"):
+            raise ParameterError(f"position source must be gnss or rtk, got {self.source!r}")
+
+    # The "+-" bound read as about 1.5 sigma of an error common to the whole flight that drifts
+    # slowly, plus a per-photo wander of 0.2 of the bound (the Phantom 4 Pro's +-1.5 m: a
+    # flight-wide N(0, 1 m) and N(0, 0.3 m) per photo). RTK has no slow bias to speak of: a
+    # third of the bound each.
+    @property
+    def bias_sigma(self) -> tuple[float, float]:
+        """1-sigma (horizontal per axis, vertical) of the flight-wide error, metres."""
+        f = 1.0 / 1.5 if self.source == "gnss" else 1.0 / 3.0
+        return f * self.horizontal_m, f * self.vertical_m
+
+    @property
+    def jitter_sigma(self) -> tuple[float, float]:
+        """1-sigma (horizontal per axis, vertical) of each photo's own error, metres."""
+        f = 0.2 if self.source == "gnss" else 1.0 / 3.0
+        return f * self.horizontal_m, f * self.vertical_m
+
+
+# A GNSS drone without RTK as most are flown: the Phantom 4 Pro's published bounds. Used where
+# a route names no drone profile.
+TYPICAL_GNSS = PositionAccuracy(1.5, 0.5, "gnss")
 
 
 @dataclass(frozen=True)
@@ -38,6 +80,10 @@ class DroneProfile:
     gimbal_rate_deg: float = 60.0  # deg/s: assumption
     sources: tuple[str, ...] = field(default_factory=tuple)
     reserve: float = RESERVE
+    position: PositionAccuracy = TYPICAL_GNSS  # hover accuracy of the positioning flown with
+    heading_error_deg: float = 1.5  # 1 sigma, compass/IMU heading: assumption (no maker figure)
+    gimbal_error_deg: float = 0.5  # 1 sigma, gimbal pitch: assumption (makers give +-0.01 deg control)
+    shutter_s: float = SURVEY_SHUTTER_S
 
     @property
     def usable_flight_min(self) -> float:
@@ -65,6 +111,9 @@ DRONES: dict[str, DroneProfile] = {
         # droneEnumValue 77 / sub 0 (M3E), payloadEnumValue 66 (Mavic 3E camera): DJI WPML
         # common elements, droneInfo and payloadInfo.
         wpml=(77, 0, 66), image_format="wide",
+        # Hovering accuracy +-0.5 m horizontal, +-0.5 m vertical with GNSS (the RTK module is an
+        # option): DJI Mavic 3 Enterprise specifications.
+        position=PositionAccuracy(0.5, 0.5, "gnss"),
         sources=("DJI Mavic 3 Enterprise specifications", "DJI WPML common elements")),
     "m350-p1": DroneProfile(
         name="m350-p1", label="DJI Matrice 350 RTK with Zenmuse P1 (35 mm)", camera=PRESETS["zenmuse-p1-35"],
@@ -79,6 +128,9 @@ DRONES: dict[str, DroneProfile] = {
         # P1): DJI Cloud API product support, payload enumeration (the WPML table lists only the
         # H20/H30/M3 cameras).
         wpml=(89, 0, 50), image_format="visible",
+        # RTK built in: hovering accuracy +-0.1 m horizontal and vertical with RTK (+-1.5 m /
+        # +-0.5 m with GNSS alone): DJI Matrice 350 RTK specifications.
+        position=PositionAccuracy(0.1, 0.1, "rtk"),
         sources=("DJI Matrice 350 RTK specifications", "DJI Zenmuse P1 specifications",
                  "DJI WPML common elements", "DJI Cloud API product support")),
     "phantom4pro": DroneProfile(
@@ -88,6 +140,9 @@ DRONES: dict[str, DroneProfile] = {
         # V2.0 specifications. Flown with Litchi.
         gimbal_pitch_deg=(-90.0, 30.0), max_speed=14.0, ascent_speed=5.0, descent_speed=3.0,
         rated_flight_min=30.0, photo_interval_s=2.0, apps=("litchi",),
+        # Hover accuracy +-1.5 m horizontal, +-0.5 m vertical with GPS: DJI Phantom 4 Pro V2.0
+        # specifications.
+        position=PositionAccuracy(1.5, 0.5, "gnss"),
         sources=("DJI Phantom 4 Pro V2.0 specifications", "Litchi mission hub documentation")),
 }
 
@@ -106,17 +161,42 @@ def get_drone(name: str) -> DroneProfile:
                              "(see 'coverplan drones')") from None
 
 
+POSITION_MARGIN_M = 1.0  # beyond the hover accuracy bound: gusts, the model's own error (assumption)
+
+
+def security_shortfall(security: float, drone: "DroneProfile | None") -> str | None:
+    """Why ``security`` is too small for the drone's own position error, or None.
+
+    The security distance is the drone's only protection against its position error, so it
+    should be at least the horizontal hover accuracy bound plus POSITION_MARGIN_M. Without a
+    profile, a GNSS drone without RTK (TYPICAL_GNSS) is assumed."""
+    acc = drone.position if drone is not None else TYPICAL_GNSS
+    need = acc.horizontal_m + POSITION_MARGIN_M
+    if float(security) >= need - 1e-9:
+        return None
+    who = f"the {drone.label}'s" if drone is not None else "a GNSS drone's (no --drone given)"
+    return (f"security {float(security):g} m is less than {who} horizontal position error "
+            f"+-{acc.horizontal_m:g} m ({acc.source.upper()}) plus a {POSITION_MARGIN_M:g} m margin = {need:g} m")
+
+
+def drone_of_route(route) -> DroneProfile | None:
+    """The profile a route was planned with (its ``params["drone"]``), if any."""
+    name = route.params.get("drone")
+    return DRONES.get(str(name).lower()) if name else None
+
+
 def with_gimbal(drone: DroneProfile, lowest: float, highest: float) -> DroneProfile:
     """The profile with another gimbal range (a gimbal that cannot look up, say)."""
     return replace(drone, gimbal_pitch_deg=(float(lowest), float(highest)))
 
 
 def drones_table() -> str:
-    rows = [("name", "drone", "camera", "gimbal deg", "speed m/s", "flight min", "photo s", "apps")]
+    rows = [("name", "drone", "camera", "gimbal deg", "speed m/s", "flight min", "photo s", "position", "apps")]
     for d in DRONES.values():
         rows.append((d.name, d.label, d.camera.name or "", f"{d.gimbal_pitch_deg[0]:g}..{d.gimbal_pitch_deg[1]:+g}",
                      f"{d.cruise_speed:g} (max {d.max_speed:g})",
                      f"{d.usable_flight_min:g} of {d.rated_flight_min:g}", f"{d.photo_interval_s:g}",
+                     f"+-{d.position.horizontal_m:g}/{d.position.vertical_m:g} m {d.position.source.upper()}",
                      ", ".join(d.apps)))
     widths = [max(len(r[k]) for r in rows) for k in range(len(rows[0]))]
     return "\n".join("  ".join(c.ljust(w) for c, w in zip(r, widths)).rstrip() for r in rows)

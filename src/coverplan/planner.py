@@ -15,6 +15,8 @@ import numpy as np
 from .camera import Camera, check_positive
 from .candidates import along_normals, facade_rings, from_probes, keep_safe, standoff, under_overhangs
 from .errors import ParameterError, PlanningError
+from .drones import security_shortfall
+from .margin import NO_MARGIN, margin_for, tightened
 from .flights import Stops, flight_table, split_flights, transit_headings, waypoint_times
 from .flighttime import FlightModel
 from .pathing import (build_flight_graph, build_lattice, closure_hops, lattice_box, lattice_spacing, leg,
@@ -163,7 +165,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
          gimbal_pitch_range_deg=None, cost_weight: float = 1.0, drone=None,
          flight_model: FlightModel | None = None, max_flight_min: float | None = None,
          lattice_spacing_m: float | None = None, lp_time_limit: float = 20.0,
-         max_memory: float | None = None, surface_classes=None,
+         max_memory: float | None = None, surface_classes=None, pose_margin: str = "field",
          progress: Progress | None = None) -> Route:
     """Plan one flight from ``start`` over shots covering the target and back.
 
@@ -175,6 +177,8 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     ``drone`` (drones.DroneProfile) gives the gimbal range, the flight-time model and the
     flight length; ``max_flight_min`` splits the tour into flights of at most that many minutes
     by the model, each from the start back to it (flights.py).
+    ``pose_margin`` "field" (default) judges frames and pair angles with the drone's own pose
+    error (margin.py: the profile's, or a GNSS drone's without ``drone``); "none" as given.
     Raises ParameterError / PlanningError (with a one-line message) on impossible settings;
     surface no safe position can image is planned around and listed in ``route.uncovered``.
     """
@@ -202,6 +206,19 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
     limits = scene_limits(scene, security=security, d_opt=d_opt, max_incidence_deg=max_incidence_deg,
                           min_altitude=min_alt, pitch_range_deg=(lo_p, hi_p), vfov_deg=camera.vfov_deg)
     margin = safety_margin(security)
+    # The rules judged with the drone's pose error: a narrower frame, narrower pair angles.
+    asked_camera, asked_tri, asked_match = camera, float(min_triangulation_deg), match
+    pose = margin_for(pose_margin, drone, standoff(camera, limits, margin))
+    if pose != NO_MARGIN:
+        camera = pose.camera(camera)
+        match, min_triangulation_deg = tightened(match, min_triangulation_deg, pose)
+        max_pair = match.max_pair_deg if match else None
+        if match and not min_triangulation_deg < match.max_pair_deg:
+            raise ParameterError(f"with the pose margin the narrowest triangulating pair ({min_triangulation_deg:.1f} "
+                                 f"deg) is not below the widest matchable one ({match.max_pair_deg:.1f} deg); "
+                                 "widen --max-pair-deg or use --margin none")
+        limits = scene_limits(scene, security=security, d_opt=d_opt, max_incidence_deg=max_incidence_deg,
+                              min_altitude=min_alt, pitch_range_deg=(lo_p, hi_p), vfov_deg=camera.vfov_deg)
     notes: list[str] = []
     spacing = default_spacing(scene, d_opt) if spacing is None else check_positive("spacing", spacing)
     distance = standoff(camera, limits, margin)
@@ -349,18 +366,23 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
             flights = split_flights(fg, order, closure, lambda o: _fly(fg, o, pred, direct, scene, limits, margin),
                                     model, stops, 60.0 * max_flight_min, scene.clearance_model(limits.security),
                                     limits.security + margin, floor=limits.segments_above_floor)
-    route = _route(flights, shots, camera, scene, limits, gsd, security, min_views,
-                   min_triangulation_deg, max_incidence_deg, min_alt, spacing, uncovered)
+    route = _route(flights, shots, asked_camera, scene, limits, gsd, security, min_views,
+                   asked_tri, max_incidence_deg, min_alt, spacing, uncovered)
+    route.params["pose_margin"] = dict(pose.to_dict(), kind=pose_margin)
     if drone is not None:
         route.params["drone"] = drone.name
+    shortfall = security_shortfall(security, drone)
+    if shortfall:
+        notes.append(f"WARNING {shortfall}: a position error that large can bring the drone closer than the "
+                     "security distance")
     if max_flight_min is not None:
         route.params["max_flight_min"] = max_flight_min
     if surface_classes:
         route.params["surface_classes"] = list(surface_classes)
     route.params["rule"] = rule
-    if match is not None:
-        route.params.update({"max_pair_deg": match.max_pair_deg, "min_overlap": match.min_overlap,
-                             "min_neighbours": match.min_neighbours, "sharp_views": match.sharp_views})
+    if asked_match is not None:
+        route.params.update({"max_pair_deg": asked_match.max_pair_deg, "min_overlap": asked_match.min_overlap,
+                             "min_neighbours": asked_match.min_neighbours, "sharp_views": asked_match.sharp_views})
     _final_check(route, scene, limits)
 
     fine = check.samples

@@ -47,6 +47,37 @@ class Simulation:
     sample_points: np.ndarray = field(repr=False)  # judge samples
     sample_distance: np.ndarray = field(repr=False)  # nearest 3D point per judge sample
     model_points: np.ndarray = field(repr=False)
+    conditions: str = "ideal"
+    texture: str = "ideal"
+    flown_offset_m: dict = field(default_factory=lambda: {"median": 0.0, "max": 0.0})  # photo vs plan
+    draws: list = field(default_factory=list)  # every draw's summary(), worst included
+    worst_draw: int = 0
+
+    @property
+    def least_class(self) -> tuple[str, float]:
+        """The surface class with area that is least rebuilt at 0.2 m, and its %."""
+        by = self.surface["by_radius"]["0.2"]["by_class_pct"]
+        areas = self.surface["class_area_m2"]
+        live = {c: v for c, v in by.items() if areas.get(c, 0) > 0}
+        if not live:
+            return "", float("nan")
+        c = min(live, key=live.get)
+        return c, float(live[c])
+
+    @property
+    def severity(self) -> tuple:
+        """Sort key, smallest = worst: failed first, then fewest photos in the model, least surface."""
+        return (self.reconstructable, self.registered / max(self.photos, 1), self.reconstructed_pct,
+                self.least_class[1])
+
+    def summary(self) -> dict:
+        """One draw in a few numbers (for the draws table and reports)."""
+        by = self.surface["by_radius"]["0.2"]
+        c, v = self.least_class
+        return {"photos": self.photos, "registered": self.registered, "models": self.models,
+                "surface_0.2_pct": by["pct"], "surface_0.1_pct": self.surface["by_radius"]["0.1"]["pct"],
+                "by_class_pct": dict(by["by_class_pct"]), "least_class": c, "least_class_pct": v,
+                "reconstructable": self.reconstructable, "flown_offset_m": self.flown_offset_m}
 
     @property
     def reconstructed_pct(self) -> float:
@@ -64,10 +95,19 @@ class Simulation:
                 "models": self.models, "points": self.points,
                 "reprojection_error_px": self.reprojection_error_px, "centre_error_m": self.centre_error_m,
                 "surface": self.surface, "photo_width_px": self.photo_width_px, "seconds": self.seconds,
-                "reconstructable": self.reconstructable,
+                "reconstructable": self.reconstructable, "conditions": self.conditions,
+                "texture": self.texture, "flown_offset_m": self.flown_offset_m, "draws": self.draws,
+                "worst_draw": self.worst_draw,
                 "shot_registered": self.shot_registered.tolist()}
 
     def table(self) -> str:
+        rows = self.rows()
+        w = max(len(r[0]) for r in rows)
+        text = "\n".join(f"{k:<{w}}  {v}" for k, v in rows)
+        return text + ("\n\n" + self.draws_table() if len(self.draws) > 1 else "")
+
+    def rows(self) -> list[tuple[str, str]]:
+        """The verdict as (label, value) rows: the conditions, then the worst draw's figures."""
         by02, by01 = self.surface["by_radius"]["0.2"], self.surface["by_radius"]["0.1"]
         rows = [("photos", f"{self.photos}"),
                 ("registered (largest model)", f"{self.registered} ({100.0 * self.registered / max(self.photos, 1):.1f} %)"),
@@ -82,8 +122,29 @@ class Simulation:
                  for c, v in by02["by_class_pct"].items()]
         rows.append(("reconstructable", "yes" if self.reconstructable else "no (DESIGN: >= 98 % registered, "
                                                                           ">= 95 % surface, >= 90 % per class)"))
-        w = max(len(r[0]) for r in rows)
-        return "\n".join(f"{k:<{w}}  {v}" for k, v in rows)
+        head = [("conditions", f"{self.conditions}" + (f", {self.texture} textures" if self.texture != "ideal" else "")
+                 + (f"; photos taken a median {self.flown_offset_m['median']:.2f} m (max "
+                    f"{self.flown_offset_m['max']:.2f} m) from the plan" if self.conditions != "ideal" else ""))]
+        if len(self.draws) > 1:
+            head.append(("draws", f"{len(self.draws)}; the verdict is the worst (draw {self.worst_draw + 1})"))
+        return head + rows
+
+    def draws_table(self) -> str:
+        """Worst and median of the draws, then each draw."""
+        def row(label, d):
+            return (label, f"{d['registered']}/{d['photos']}", f"{d['models']}", f"{d['surface_0.2_pct']:.1f} %",
+                    f"{d['least_class']} {d['least_class_pct']:.1f} %", "yes" if d["reconstructable"] else "no")
+        med = {"photos": self.photos,
+               "registered": int(np.median([d["registered"] for d in self.draws])),
+               "models": int(np.median([d["models"] for d in self.draws])),
+               "surface_0.2_pct": float(np.median([d["surface_0.2_pct"] for d in self.draws])),
+               "least_class": "", "least_class_pct": float(np.median([d["least_class_pct"] for d in self.draws])),
+               "reconstructable": sum(d["reconstructable"] for d in self.draws) * 2 > len(self.draws)}
+        rows = [("draw", "registered", "models", "surface @0.2 m", "least class", "reconstructable"),
+                row("worst", self.draws[self.worst_draw]), row("median", med)]
+        rows += [row(f"seed {d['seed']}", d) for d in self.draws]
+        widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+        return "\n".join("  ".join(c.ljust(wd) for c, wd in zip(r, widths)).rstrip() for r in rows)
 
     def reconstructed_at(self, points, radius: float = 0.2) -> np.ndarray:
         """Per point: is a 3D point of the largest model within ``radius``?"""
@@ -116,7 +177,10 @@ class Simulation:
             pts = np.asarray(trimesh.load(points_file).vertices) if points_file.exists() else np.zeros((0, 3))
             return cls(d["photos"], d["registered"], d["registered_any"], d["models"], d["points"],
                        d["reprojection_error_px"], d["centre_error_m"], d["surface"], d["photo_width_px"],
-                       d["seconds"], np.array(d["shot_registered"], dtype=bool), np.zeros((0, 3)), np.zeros(0), pts)
+                       d["seconds"], np.array(d["shot_registered"], dtype=bool), np.zeros((0, 3)), np.zeros(0), pts,
+                       conditions=d.get("conditions", "ideal"), texture=d.get("texture", "ideal"),
+                       flown_offset_m=d.get("flown_offset_m", {"median": 0.0, "max": 0.0}),
+                       draws=d.get("draws", []), worst_draw=d.get("worst_draw", 0))
         except FileNotFoundError:
             raise InputFileError(str(path), "no such file") from None
         except (ValueError, KeyError, TypeError) as exc:
@@ -127,39 +191,114 @@ def _points_path(path: Path) -> Path:
     return path.with_name(path.stem + ".points.ply")
 
 
-def simulate(route, scene, out_dir, *, width: int = DEFAULT_WIDTH_PX, threads: int = -1, seed: int = 0,
+DEFAULT_CONDITIONS = "field"
+DEFAULT_DRAWS = 3
+
+
+def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, draws: int = DEFAULT_DRAWS,
+             texture: str = "noise", matching: str = "spatial", width: int = DEFAULT_WIDTH_PX, threads: int = -1, seed: int = 0,
              exhaustive_limit: int = 80, judge_spacing: float = JUDGE_SPACING_M,
              progress: Progress | None = None) -> Simulation:
-    """Render the route's photos into ``out_dir/images``, reconstruct them, judge the result."""
+    """Render the route's photos as a drone would take them, reconstruct them, judge the result.
+
+    Parameters
+    ----------
+    route : Route
+    scene : Scene
+        The true scene: the photos are rendered on it and the reconstruction judged against it.
+    out_dir : path
+        Photos and COLMAP's files; with several draws, one folder ``draw-K`` each.
+    conditions : {"ideal", "field", "harsh"} or Conditions
+        ``field`` flies with the drone profile's position, heading and gimbal error in a moving
+        light (sfm/conditions.py); ``harsh`` adds plaster, brick, window grids, glass and tiles.
+    draws : int
+        Flights drawn under the conditions, seeds ``seed`` .. ``seed + draws - 1``; the returned
+        verdict is the worst draw's, with every draw's summary in ``Simulation.draws``. ``ideal``
+        is one draw whatever is asked.
+    texture : {"noise", "cells"}
+        The texture family under field or harsh conditions.
+    matching : {"spatial", "covisible"}
+        Above ``exhaustive_limit`` photos: COLMAP's spatial matcher on the photos' GNSS tags (as a
+        user would run it), or the pairs whose rendered views share most surface.
+
+    Returns
+    -------
+    Simulation
+        The worst draw.
+    """
+    from .errors import ParameterError
+    from .sfm.conditions import Conditions, get_conditions
+    from .sfm.render import TEXTURE_FAMILIES
+
     require_pycolmap()
+    cond = conditions if isinstance(conditions, Conditions) else get_conditions(conditions)
+    if texture not in TEXTURE_FAMILIES:
+        raise ParameterError(f"unknown texture family {texture!r}; choose one of {', '.join(TEXTURE_FAMILIES)}")
+    from .sfm.colmap import MATCHINGS
+    if matching not in MATCHINGS:
+        raise ParameterError(f"unknown matching {matching!r}; choose one of {', '.join(MATCHINGS)}")
+    draws = 1 if cond.name == "ideal" else int(draws)
+    if draws < 1:
+        raise ParameterError(f"draws must be at least 1, got {draws}")
+    if len(route.shots) < 2:
+        raise ParameterError(f"the route has {len(route.shots)} photo(s); SfM needs at least 2")
     progress = progress or Progress()
     out_dir = Path(out_dir)
+    runs = []
+    for k in range(draws):
+        folder = out_dir if draws == 1 else out_dir / f"draw-{k + 1}"
+        progress.note(f"draw {k + 1} of {draws} ({cond.name}, {texture} textures)")
+        runs.append(_simulate_once(route, scene, folder, cond, texture, matching, width, threads, seed + k,
+                                   exhaustive_limit, judge_spacing, progress))
+    worst = min(range(draws), key=lambda k: runs[k].severity)
+    sim = runs[worst]
+    sim.draws = [dict(r.summary(), seed=seed + k, folder=str(out_dir if draws == 1 else out_dir / f"draw-{k + 1}"))
+                 for k, r in enumerate(runs)]
+    sim.worst_draw = worst
+    return sim
+
+
+def _simulate_once(route, scene, out_dir: Path, cond, texture: str, matching: str, width: int, threads: int, seed: int,
+                   exhaustive_limit: int, judge_spacing: float, progress: Progress) -> Simulation:
+    from .sfm.conditions import fly
+    from .sfm.render import FieldRenderer
+
     images = out_dir / "images"
     images.mkdir(parents=True, exist_ok=True)
     shots = route.shots
-    if len(shots) < 2:
-        from .errors import ParameterError
-        raise ParameterError(f"the route has {len(shots)} photo(s); SfM needs at least 2")
     photo = PhotoCamera.of(route.camera, width)
     d_opt = route.d_opt
-    # Finest texture about 2.5 px wide at 80 % of d_opt (the usual standoff): visible, not aliased.
-    renderer = PhotoRenderer(scene, photo, finest_texture_m=2.5 * photo.gsd_at(0.8 * d_opt),
-                             ground_reach=4.0 * d_opt + route.security, seed=seed)
+    flown = fly(route, cond, seed=seed)
+    reach = 4.0 * d_opt + route.security
+    if cond.physical_textures:
+        renderer = FieldRenderer(scene, photo, ground_reach=reach, family=texture, facades=cond.facades, seed=seed)
+    else:
+        # Finest texture about 2.5 px wide at 80 % of d_opt (the usual standoff): visible, not aliased.
+        renderer = PhotoRenderer(scene, photo, finest_texture_m=2.5 * photo.gsd_at(0.8 * d_opt),
+                                 ground_reach=reach, seed=seed)
     names = [f"shot_{k:04d}.png" for k in range(len(shots))]
     t = time.perf_counter()
     from PIL import Image
     seen = []
+    noise = np.random.default_rng([seed, 0xCA3E])
     with progress.stage("rendering photos", total=len(shots), unit="img") as tick:
-        for name, i in zip(names, shots):
-            img, pts = renderer.render_with_points(route.positions[i], route.heading_deg[i], route.pitch_deg[i])
+        for k, name in enumerate(names):
+            if cond.light:
+                img, pts = renderer.render_flown(flown.positions[k], flown.heading_deg[k], flown.pitch_deg[k],
+                                                 flown.sun[k], flown.direct[k], flown.exposure[k],
+                                                 flown.velocity[k], flown.shutter_s, noise)
+            else:
+                img, pts = renderer.render_with_points(flown.positions[k], flown.heading_deg[k], flown.pitch_deg[k])
             Image.fromarray(img).save(images / name)
             seen.append(pts)
             tick(1)
     seconds = {"render": time.perf_counter() - t}
-    centres = route.positions[shots]
-    pairs = covisible_pairs(seen, cell=max(0.25 * d_opt, 0.5), k=PAIRS_PER_PHOTO) if len(shots) > exhaustive_limit else []
+    centres = flown.positions  # where the photos were really taken: the judge's reference
+    pairs = covisible_pairs(seen, cell=max(0.25 * d_opt, 0.5), k=PAIRS_PER_PHOTO) \
+        if len(shots) > exhaustive_limit and matching == "covisible" else []
     sfm = run_sfm(images, names, photo, centres, pairs, out_dir / "colmap", exhaustive_limit=exhaustive_limit,
-                  threads=threads, seed=seed, progress=progress)
+                  threads=threads, seed=seed, progress=progress, matching=matching, recorded_positions=flown.recorded,
+                  neighbour_distance=max(3.0 * d_opt, 10.0))
     seconds.update(sfm.seconds)
     best = sfm.largest
     t = time.perf_counter()
@@ -184,4 +323,5 @@ def simulate(route, scene, out_dir, *, width: int = DEFAULT_WIDTH_PX, threads: i
         reprojection_error_px=best.reprojection_error_px if best is not None else float("nan"),
         centre_error_m=centre_error, surface=surface, photo_width_px=photo.width, seconds=seconds,
         shot_registered=shot_registered, sample_points=samples.points, sample_distance=distance,
-        model_points=pts)
+        model_points=pts, conditions=cond.name, texture=texture if cond.physical_textures else "ideal",
+        flown_offset_m={"median": float(np.median(flown.offset_m)), "max": float(flown.offset_m.max())})

@@ -172,8 +172,26 @@ def simulation_rows(sim) -> str:
     if sim is None:
         return ("<p>No simulation: <code>coverplan simulate ROUTE --target ... -o DIR</code> renders the photos, "
                 "reconstructs them with COLMAP and shows here what came back.</p>")
-    rows = [tuple(line.split("  ", 1)) if "  " in line else (line, "") for line in sim.table().splitlines()]
-    return f"<table>{_rows([(k.strip(), v.strip()) for k, v in rows])}</table>"
+    out = f"<table>{_rows([(k.strip(), v.strip()) for k, v in sim.rows()])}</table>"
+    if len(sim.draws) > 1:
+        out += draws_html(sim)
+    return out
+
+
+def draws_html(sim) -> str:
+    """What each drawn flight lost: photos SfM could not place, surface without a 3D point, per class."""
+    classes = sorted({c for d in sim.draws for c in d["by_class_pct"]})
+    head = "".join(f"<th>{html.escape(c)}</th>" for c in classes)
+    body = []
+    for k, d in enumerate(sim.draws):
+        label = f"seed {d['seed']}" + (" (worst: the verdict)" if k == sim.worst_draw else "")
+        cells = "".join(f"<td>{100.0 - d['by_class_pct'].get(c, 100.0):.1f} %</td>" for c in classes)
+        body.append(f"<tr><td class=l>{label}</td><td>{d['photos'] - d['registered']} of {d['photos']}</td>"
+                    f"<td>{d['models']}</td><td>{100.0 - d['surface_0.2_pct']:.1f} %</td>{cells}"
+                    f"<td>{'yes' if d['reconstructable'] else 'no'}</td></tr>")
+    return (f"<h3>{len(sim.draws)} flights drawn under {html.escape(sim.conditions)} conditions: what each lost</h3>"
+            f"<table><tr><th>draw</th><th>photos lost</th><th>models</th><th>surface missing @0.2 m</th>{head}"
+            f"<th>reconstructable</th></tr>{''.join(body)}</table>")
 
 
 def render_html(route, scene, evaluation, title: str = "coverplan flight report", simulation=None) -> str:

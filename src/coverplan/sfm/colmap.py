@@ -84,11 +84,38 @@ def covisible_pairs(seen: list[np.ndarray], cell: float, k: int) -> list[tuple[i
     return sorted(pairs)
 
 
+MATCHINGS = ("spatial", "covisible")
+SPATIAL_NEIGHBOURS = 50
+
+
+def write_position_priors(pycolmap, database: Path, names: list[str], positions: np.ndarray, sigma_m: float) -> None:
+    """Each photo's recorded position (its GNSS tag, local metres) as a COLMAP pose prior."""
+    db = pycolmap.Database.open(database) if hasattr(pycolmap.Database, "open") else pycolmap.Database(database)
+    try:
+        index = {name: k for k, name in enumerate(names)}
+        cov = np.eye(3) * float(sigma_m) ** 2
+        for image in db.read_all_images():
+            k = index.get(image.name)
+            if k is None:
+                continue
+            prior = pycolmap.PosePrior(position=np.asarray(positions[k], dtype=float), position_covariance=cov,
+                                       coordinate_system=pycolmap.PosePriorCoordinateSystem.CARTESIAN)
+            prior.corr_data_id = image.data_id
+            db.write_pose_prior(prior)
+    finally:
+        db.close()
+
+
 def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, pairs: list[tuple[int, int]],
             work_dir: Path, *, exhaustive_limit: int = 80, max_features: int = 8192, threads: int = -1,
-            seed: int = 0, progress=None) -> SfmResult:
-    """Features, matching and incremental mapping over the photos ``names`` in ``image_dir``;
-    above ``exhaustive_limit`` photos only the given ``pairs`` (indices into ``names``) are matched."""
+            seed: int = 0, progress=None, matching: str = "covisible", recorded_positions: np.ndarray | None = None,
+            neighbour_distance: float = 100.0) -> SfmResult:
+    """Features, matching and incremental mapping over the photos ``names`` in ``image_dir``.
+
+    Up to ``exhaustive_limit`` photos every pair is matched. Above it, ``matching`` "spatial"
+    matches each photo with its SPATIAL_NEIGHBOURS nearest by ``recorded_positions`` (the GNSS
+    tags, as a user's own COLMAP run would), within ``neighbour_distance`` metres; "covisible"
+    matches the given ``pairs`` (indices into ``names``)."""
     import time
 
     pycolmap = require_pycolmap()
@@ -118,11 +145,23 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     seconds["features"] = time.perf_counter() - t
 
     t = time.perf_counter()
+    matching_kind = matching
     matching = pycolmap.FeatureMatchingOptions()
     matching.num_threads = threads
+    if matching_kind not in MATCHINGS:
+        raise ParameterError(f"matching must be one of {', '.join(MATCHINGS)}, got {matching_kind!r}")
     with _stage(progress, "SfM matching"):
         if len(names) <= exhaustive_limit:
             pycolmap.match_exhaustive(database, matching_options=matching, device=pycolmap.Device.cpu)
+        elif matching_kind == "spatial":
+            write_position_priors(pycolmap, database, names, recorded_positions if recorded_positions is not None
+                                  else true_centres, 1.0)
+            pairing = pycolmap.SpatialPairingOptions()
+            pairing.ignore_z = False
+            pairing.max_num_neighbors = SPATIAL_NEIGHBOURS
+            pairing.max_distance = float(neighbour_distance)
+            pycolmap.match_spatial(database, matching_options=matching, pairing_options=pairing,
+                                   device=pycolmap.Device.cpu)
         else:
             pairs_file = work_dir / "pairs.txt"
             pairs_file.write_text("".join(f"{names[i]} {names[j]}\n" for i, j in pairs))
