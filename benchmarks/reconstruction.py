@@ -1,10 +1,12 @@
-"""Do the photos reconstruct? coverplan's default plan vs QGroundControl's Structure Scan.
+"""Do the photos reconstruct? coverplan's default plan vs QGroundControl's Structure Scan and
+the scan plus a nadir roof grid, under ideal, field and harsh conditions.
 
-For each sample scene both flights are planned at the same camera, GSD and security distance,
-their photos rendered on the textured scene and run through COLMAP (``coverplan.simulate``);
-the table gives photos, path, flight time, planning time, photos registered in the largest
-model, number of models and the share of the target surface with a 3D point within 0.2 m,
-overall and per surface class. Also the thesis's rule (``--rule thesis``) for comparison.
+For each sample scene the flights are planned at the same camera, GSD and security distance,
+their photos rendered on the textured scene as a drone would take them and run through COLMAP
+(``coverplan.simulate``); the table gives photos, path, flight time, planning time, photos
+registered in the largest model, number of models and the share of the target surface with a
+3D point within 0.2 m, overall and per surface class, worst and median of the draws. Also the
+thesis's rule (``--rule thesis``) and the plan without its pose margin (``--margin none``).
 Slow (minutes per flight): not part of the test suite. ``--quick`` runs one small scene.
 """
 
@@ -16,7 +18,7 @@ import time
 from pathlib import Path
 
 from common import MESHES, table, write_json
-from structure_scan import structure_scan
+from structure_scan import scan_with_roof_grid, structure_scan
 
 from coverplan import evaluate, get_camera, load_scene, plan
 from coverplan.progress import Progress
@@ -36,11 +38,18 @@ def flight_minutes(route) -> float:
     return (route.path_length / SPEED + SHOT_SECONDS * len(route.shots)) / 60.0
 
 
-def run(name, flight, route, scene, plan_s, out: Path, width: int) -> dict:
+def run(name, flight, route, scene, plan_s, out: Path, width: int, conditions: str = "field", draws: int = 3,
+        texture: str = "noise") -> dict:
     ev = evaluate(route, scene)
-    sim = simulate(route, scene, out / f"{name}_{flight}", width=width, progress=Progress(verbose=True))
+    sim = simulate(route, scene, out / f"{name}_{flight}_{conditions}_{texture}", width=width, conditions=conditions,
+                   draws=draws, texture=texture, progress=Progress(verbose=True))
     by = sim.surface["by_radius"]["0.2"]
-    row = {"scene": name, "flight": flight, "photos": sim.photos, "path_m": route.path_length,
+    drawn = sim.draws or [sim.summary()]
+    row = {"scene": name, "flight": flight, "conditions": conditions, "texture": sim.texture, "draws": len(drawn),
+           "median_surface_02_pct": float(sorted(d["surface_0.2_pct"] for d in drawn)[len(drawn) // 2]),
+           "median_registered": int(sorted(d["registered"] for d in drawn)[len(drawn) // 2]),
+           "draw_summaries": drawn,
+           "photos": sim.photos, "path_m": route.path_length,
            "flight_min": flight_minutes(route), "plan_s": plan_s, "registered": sim.registered,
            "registered_pct": 100.0 * sim.registered / sim.photos, "models": sim.models, "points": sim.points,
            "surface_01_pct": sim.surface["by_radius"]["0.1"]["pct"], "surface_02_pct": by["pct"],
@@ -57,22 +66,28 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--scenes", nargs="+", default=None, choices=sorted(SCENES))
-    parser.add_argument("--flights", nargs="+", default=["coverplan", "structure-scan", "thesis-rule"],
-                        choices=["coverplan", "structure-scan", "thesis-rule"])
+    flights = ["coverplan", "no-margin", "structure-scan", "scan+roof-grid", "thesis-rule"]
+    parser.add_argument("--flights", nargs="+", default=["coverplan", "structure-scan", "scan+roof-grid"],
+                        choices=flights)
+    parser.add_argument("--conditions", nargs="+", default=["field"], choices=["ideal", "field", "harsh"])
+    parser.add_argument("--draws", type=int, default=3)
+    parser.add_argument("--textures", nargs="+", default=["noise"], choices=["noise", "cells"])
     parser.add_argument("--width", type=int, default=1024, help="rendered photo width in px")
     parser.add_argument("--keep", default=None, help="folder to keep photos and COLMAP files in")
     parser.add_argument("--tag", default=None, help="write results/reconstruction_TAG.json (runs split over sessions)")
     args = parser.parse_args(argv)
     names = ["gabled"] if args.quick else (args.scenes or list(SCENES))
-    if args.quick:  # a smoke run: small photos, ours against the scan only
-        args.width, args.flights = 480, [f for f in args.flights if f != "thesis-rule"]
+    if args.quick:  # a smoke run: small photos, one field draw, ours against the scan only
+        args.width, args.flights, args.draws = 480, ["coverplan", "structure-scan"], 1
+        args.conditions, args.textures = ["field"], ["noise"]
     camera = get_camera(CAMERA)
     rows = []
 
     def save(rows):  # after every flight too: a full run takes hours, a stopped one keeps its rows
         for r in rows:
-            scan = next((s for s in rows if s["scene"] == r["scene"] and s["flight"] == "structure-scan"), None)
-            r["photos_vs_scan"] = r["photos"] / scan["photos"] if scan else None
+            for other, key in (("structure-scan", "photos_vs_scan"), ("scan+roof-grid", "photos_vs_scan_grid")):
+                base = next((s for s in rows if s["scene"] == r["scene"] and s["flight"] == other), None)
+                r[key] = r["photos"] / base["photos"] if base else None
         return write_json("reconstruction" + (f"_{args.tag}" if args.tag else ""), args.quick,
                           {"camera": CAMERA, "gsd_m": GSD, "security_m": SECURITY, "photo_width_px": args.width,
                            "rows": rows})
@@ -85,24 +100,27 @@ def main(argv=None):
             t = time.perf_counter()
             ours = plan(scene, camera, gsd=GSD, security=SECURITY)
             ours_s = time.perf_counter() - t
-            if "coverplan" in args.flights:
-                rows.append(run(name, "coverplan", ours, scene, ours_s, out, args.width))
-                save(rows)
-            if "thesis-rule" in args.flights:
+            routes = {"coverplan": lambda: ours,
+                      "no-margin": lambda: plan(scene, camera, gsd=GSD, security=SECURITY, pose_margin="none"),
+                      "thesis-rule": lambda: plan(scene, camera, gsd=GSD, security=SECURITY, rule="thesis"),
+                      "structure-scan": lambda: structure_scan(scene, camera, GSD, SECURITY, ours.positions[0]),
+                      "scan+roof-grid": lambda: scan_with_roof_grid(scene, camera, GSD, SECURITY, ours.positions[0])}
+            for flight in args.flights:
                 t = time.perf_counter()
-                thesis = plan(scene, camera, gsd=GSD, security=SECURITY, rule="thesis")
-                rows.append(run(name, "thesis-rule", thesis, scene, time.perf_counter() - t, out, args.width))
-                save(rows)
-            if "structure-scan" in args.flights:
-                t = time.perf_counter()
-                scan = structure_scan(scene, camera, GSD, SECURITY, ours.positions[0])
-                rows.append(run(name, "structure-scan", scan, scene, time.perf_counter() - t, out, args.width))
-                save(rows)
-    print(table(rows, [("scene", "scene", ""), ("flight", "flight", ""), ("photos", "photos", "d"),
-                       ("photos_vs_scan", "x scan", ".2f"), ("path_m", "path m", ".0f"),
+                route = routes[flight]()
+                made_s = ours_s if flight == "coverplan" else time.perf_counter() - t
+                for cond in args.conditions:
+                    for texture in (["noise"] if cond == "ideal" else args.textures):
+                        rows.append(run(name, flight, route, scene, made_s, out, args.width, cond, args.draws, texture))
+                        save(rows)
+    print(table(rows, [("scene", "scene", ""), ("flight", "flight", ""), ("conditions", "conditions", ""),
+                       ("texture", "texture", ""), ("photos", "photos", "d"),
+                       ("photos_vs_scan", "x scan", ".2f"), ("photos_vs_scan_grid", "x scan+grid", ".2f"),
+                       ("path_m", "path m", ".0f"),
                        ("flight_min", "flight min", ".1f"), ("plan_s", "plan s", ".1f"),
                        ("registered", "registered", "d"), ("models", "models", "d"),
-                       ("surface_01_pct", "@0.1 m %", ".1f"), ("surface_02_pct", "@0.2 m %", ".1f"),
+                       ("surface_01_pct", "@0.1 m %", ".1f"), ("surface_02_pct", "worst @0.2 m %", ".1f"),
+                       ("median_surface_02_pct", "median @0.2 m %", ".1f"),
                        ("worst_class", "worst class", ""), ("worst_class_pct", "worst %", ".1f")]))
     print(f"written {save(rows)}")
 

@@ -54,15 +54,19 @@ def test_default_plan_reconstructs_as_one_model(simulated, house):
 
 
 # Under field conditions: the drone's GNSS, heading and gimbal error, the moving sun with cast
-# shadows, clouds, auto exposure, sensor noise, textures at the materials' own scales.
-FIELD_WIDTH = 640
+# shadows, clouds, auto exposure, sensor noise, textures at the materials' own scales. At the
+# default 1024 px (at 640 px this draw rebuilds 92.6 %: too coarse for the bar). Matched as a
+# large flight is, by COLMAP's spatial matcher on the photos' GNSS tags, with 16 neighbours
+# each instead of 50 to keep the test near 2 minutes.
+FIELD_SEED = 0
 
 
 @pytest.fixture(scope="module")
 def field(house, tmp_path_factory):
     scene, route = house
     out = tmp_path_factory.mktemp("field")
-    return simulate(route, scene, out, conditions="field", draws=1, width=FIELD_WIDTH), out
+    return simulate(route, scene, out, conditions="field", draws=1, seed=FIELD_SEED, exhaustive_limit=0,
+                    spatial_neighbours=16), out
 
 
 def _colmap_verdict(out, scene, sim):
@@ -77,6 +81,7 @@ def _colmap_verdict(out, scene, sim):
     return best.num_reg_images(), len(recs), by
 
 
+@pytest.mark.xdist_group("field")
 def test_field_flight_of_the_default_plan_reconstructs(field, house):
     """The default plan (with its pose margin), flown as a GNSS drone would fly it."""
     sim, out = field
@@ -85,9 +90,28 @@ def test_field_flight_of_the_default_plan_reconstructs(field, house):
     # The photos really were taken off the plan: a flight-wide bias of about a metre.
     assert sim.flown_offset_m["median"] > 0.3, sim.flown_offset_m
     registered, n_models, by = _colmap_verdict(out, scene, sim)
+    # Measured: 38 of 38 in one model, 97.3 % rebuilt, the east face (in shadow) 92.3 %.
     assert n_models == 1 and registered >= 0.98 * len(route.shots), sim.table()
     assert by["pct"] >= 95.0 and min(by["by_class_pct"].values()) >= 90.0, sim.table()
     assert sim.reconstructable
+
+
+@pytest.mark.xdist_group("field")
+def test_without_the_pose_margin_the_field_flight_loses_more(field, house, tmp_path):
+    """The same house planned with the rules as given (no pose margin), flown in the same field
+    draw: the face that suffers most (the east gable, in shadow all flight) loses more.
+    Measured: 36 photos, 95.0 % rebuilt, east 84.5 %, against 38 photos, 97.3 %, east 92.3 %."""
+    sim, out = field
+    scene, _route = house
+    bare = plan(scene, get_camera("phantom4pro"), gsd=0.004, security=3.0, pose_margin="none")
+    assert len(bare.shots) < len(_route.shots)
+    lost = simulate(bare, scene, tmp_path / "bare", conditions="field", draws=1, seed=FIELD_SEED, exhaustive_limit=0,
+                    spatial_neighbours=16)
+    _registered, _n, by_margin = _colmap_verdict(out, scene, sim)
+    _registered, _n, by_bare = _colmap_verdict(tmp_path / "bare", scene, lost)
+    assert min(by_bare["by_class_pct"].values()) < min(by_margin["by_class_pct"].values()) - 2.0, (
+        lost.table(), sim.table())
+    assert by_bare["pct"] < by_margin["pct"], (lost.table(), sim.table())
 
 
 def test_verdict_comes_from_colmap_output(simulated, house):

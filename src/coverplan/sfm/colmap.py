@@ -109,11 +109,11 @@ def write_position_priors(pycolmap, database: Path, names: list[str], positions:
 def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, pairs: list[tuple[int, int]],
             work_dir: Path, *, exhaustive_limit: int = 80, max_features: int = 8192, threads: int = -1,
             seed: int = 0, progress=None, matching: str = "covisible", recorded_positions: np.ndarray | None = None,
-            neighbour_distance: float = 100.0) -> SfmResult:
+            neighbour_distance: float = 100.0, neighbours: int = SPATIAL_NEIGHBOURS) -> SfmResult:
     """Features, matching and incremental mapping over the photos ``names`` in ``image_dir``.
 
     Up to ``exhaustive_limit`` photos every pair is matched. Above it, ``matching`` "spatial"
-    matches each photo with its SPATIAL_NEIGHBOURS nearest by ``recorded_positions`` (the GNSS
+    matches each photo with its ``neighbours`` nearest by ``recorded_positions`` (the GNSS
     tags, as a user's own COLMAP run would), within ``neighbour_distance`` metres; "covisible"
     matches the given ``pairs`` (indices into ``names``)."""
     import time
@@ -158,7 +158,7 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
                                   else true_centres, 1.0)
             pairing = pycolmap.SpatialPairingOptions()
             pairing.ignore_z = False
-            pairing.max_num_neighbors = SPATIAL_NEIGHBOURS
+            pairing.max_num_neighbors = int(neighbours)
             pairing.max_distance = float(neighbour_distance)
             pycolmap.match_spatial(database, matching_options=matching, pairing_options=pairing,
                                    device=pycolmap.Device.cpu)
