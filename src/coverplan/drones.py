@@ -58,6 +58,8 @@ class PositionAccuracy:
 # A GNSS drone without RTK as most are flown: the Phantom 4 Pro's published bounds. Used where
 # a route names no drone profile.
 TYPICAL_GNSS = PositionAccuracy(1.5, 0.5, "gnss")
+HEADING_ERROR_DEG = 1.5  # 1 sigma, compass/IMU heading: assumption (no maker figure)
+GIMBAL_ERROR_DEG = 0.5  # 1 sigma, gimbal pitch: assumption (makers give +-0.01 deg control)
 
 
 @dataclass(frozen=True)
@@ -81,8 +83,8 @@ class DroneProfile:
     sources: tuple[str, ...] = field(default_factory=tuple)
     reserve: float = RESERVE
     position: PositionAccuracy = TYPICAL_GNSS  # hover accuracy of the positioning flown with
-    heading_error_deg: float = 1.5  # 1 sigma, compass/IMU heading: assumption (no maker figure)
-    gimbal_error_deg: float = 0.5  # 1 sigma, gimbal pitch: assumption (makers give +-0.01 deg control)
+    heading_error_deg: float = HEADING_ERROR_DEG
+    gimbal_error_deg: float = GIMBAL_ERROR_DEG
     shutter_s: float = SURVEY_SHUTTER_S
 
     @property
@@ -159,6 +161,28 @@ def get_drone(name: str) -> DroneProfile:
     except KeyError:
         raise ParameterError(f"unknown drone {name!r}; drones: {', '.join(sorted(DRONES))} "
                              "(see 'coverplan drones')") from None
+
+
+@dataclass(frozen=True)
+class PoseError:
+    """A drone's own pose error as 1-sigma values: the flight-wide position bias and the
+    per-photo wander (metres, horizontal per axis and vertical), heading and gimbal pitch (deg)."""
+
+    bias_h: float
+    bias_v: float
+    jitter_h: float
+    jitter_v: float
+    heading_deg: float
+    pitch_deg: float
+
+    @classmethod
+    def of_drone(cls, drone: "DroneProfile | None") -> "PoseError":
+        """The profile's error, or a GNSS drone's without RTK (TYPICAL_GNSS) when None."""
+        accuracy = drone.position if drone is not None else TYPICAL_GNSS
+        (bh, bv), (jh, jv) = accuracy.bias_sigma, accuracy.jitter_sigma
+        if drone is None:
+            return cls(bh, bv, jh, jv, HEADING_ERROR_DEG, GIMBAL_ERROR_DEG)
+        return cls(bh, bv, jh, jv, float(drone.heading_error_deg), float(drone.gimbal_error_deg))
 
 
 POSITION_MARGIN_M = 1.0  # beyond the hover accuracy bound: gusts, the model's own error (assumption)

@@ -21,7 +21,7 @@ import math
 from dataclasses import dataclass, replace
 
 from .camera import Camera
-from .drones import TYPICAL_GNSS, DroneProfile
+from .drones import DroneProfile, PoseError
 from .errors import ParameterError
 
 MARGINS = ("field", "none")
@@ -73,14 +73,11 @@ def margin_for(kind: str, drone: DroneProfile | None, standoff_m: float) -> Pose
         raise ParameterError(f"margin must be one of {', '.join(MARGINS)}, got {kind!r}")
     if kind == "none":
         return NO_MARGIN
-    accuracy = drone.position if drone is not None else TYPICAL_GNSS
-    heading = drone.heading_error_deg if drone is not None else 1.5
-    pitch = drone.gimbal_error_deg if drone is not None else 0.5
-    jitter_h, jitter_v = accuracy.jitter_sigma
+    error = PoseError.of_drone(drone)
     d = max(float(standoff_m), 1e-3)
-    return PoseMargin(frame_h_deg=heading + math.degrees(math.atan(jitter_h / d)),
-                      frame_v_deg=pitch + math.degrees(math.atan(jitter_v / d)),
-                      pair_deg=math.degrees(math.atan(math.sqrt(2.0) * jitter_h / d)))
+    return PoseMargin(frame_h_deg=error.heading_deg + math.degrees(math.atan(error.jitter_h / d)),
+                      frame_v_deg=error.pitch_deg + math.degrees(math.atan(error.jitter_v / d)),
+                      pair_deg=math.degrees(math.atan(math.sqrt(2.0) * error.jitter_h / d)))
 
 
 def tightened(match, min_triangulation_deg: float, margin: PoseMargin):

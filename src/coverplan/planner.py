@@ -9,6 +9,7 @@ from __future__ import annotations
 import os
 import time
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
 
 import numpy as np
 
@@ -217,8 +218,7 @@ def plan(scene, camera: Camera, *, gsd: float, security: float, start=None, min_
             raise ParameterError(f"with the pose margin the narrowest triangulating pair ({min_triangulation_deg:.1f} "
                                  f"deg) is not below the widest matchable one ({match.max_pair_deg:.1f} deg); "
                                  "widen --max-pair-deg or use --margin none")
-        limits = scene_limits(scene, security=security, d_opt=d_opt, max_incidence_deg=max_incidence_deg,
-                              min_altitude=min_alt, pitch_range_deg=(lo_p, hi_p), vfov_deg=camera.vfov_deg)
+        limits = replace(limits, vfov_deg=camera.vfov_deg)
     notes: list[str] = []
     spacing = default_spacing(scene, d_opt) if spacing is None else check_positive("spacing", spacing)
     distance = standoff(camera, limits, margin)

@@ -9,15 +9,18 @@ from __future__ import annotations
 
 import json
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from .errors import ParameterError
 from .progress import Progress
-from .sfm.colmap import SPATIAL_NEIGHBOURS, covisible_pairs, require_pycolmap, run_sfm
+from .sfm.colmap import SPATIAL_NEIGHBOURS, check_matching, covisible_pairs, require_pycolmap, run_sfm
+from .sfm.conditions import Conditions, fly, get_conditions
 from .sfm.judge import judge_samples, reconstructed_surface
-from .sfm.render import PhotoCamera, PhotoRenderer
+from .sfm.render import FieldRenderer, PhotoCamera, PhotoRenderer, check_texture
 
 DEFAULT_WIDTH_PX = 1024
 JUDGE_SPACING_M = 0.1
@@ -228,17 +231,10 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
     Simulation
         The worst draw.
     """
-    from .errors import ParameterError
-    from .sfm.conditions import Conditions, get_conditions
-    from .sfm.render import TEXTURE_FAMILIES
-
     require_pycolmap()
     cond = conditions if isinstance(conditions, Conditions) else get_conditions(conditions)
-    if texture not in TEXTURE_FAMILIES:
-        raise ParameterError(f"unknown texture family {texture!r}; choose one of {', '.join(TEXTURE_FAMILIES)}")
-    from .sfm.colmap import MATCHINGS
-    if matching not in MATCHINGS:
-        raise ParameterError(f"unknown matching {matching!r}; choose one of {', '.join(MATCHINGS)}")
+    check_texture(texture)
+    check_matching(matching)
     draws = 1 if cond.name == "ideal" else int(draws)
     if draws < 1:
         raise ParameterError(f"draws must be at least 1, got {draws}")
@@ -246,16 +242,15 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
         raise ParameterError(f"the route has {len(route.shots)} photo(s); SfM needs at least 2")
     progress = progress or Progress()
     out_dir = Path(out_dir)
+    folders = [out_dir] if draws == 1 else [out_dir / f"draw-{k + 1}" for k in range(draws)]
     runs = []
-    for k in range(draws):
-        folder = out_dir if draws == 1 else out_dir / f"draw-{k + 1}"
+    for k, folder in enumerate(folders):
         progress.note(f"draw {k + 1} of {draws} ({cond.name}, {texture} textures)")
         runs.append(_simulate_once(route, scene, folder, cond, texture, matching, width, threads, seed + k,
                                    exhaustive_limit, spatial_neighbours, judge_spacing, progress))
     worst = min(range(draws), key=lambda k: runs[k].severity)
     sim = runs[worst]
-    sim.draws = [dict(r.summary(), seed=seed + k, folder=str(out_dir if draws == 1 else out_dir / f"draw-{k + 1}"))
-                 for k, r in enumerate(runs)]
+    sim.draws = [dict(r.summary(), seed=seed + k, folder=str(folders[k])) for k, r in enumerate(runs)]
     sim.worst_draw = worst
     return sim
 
@@ -263,9 +258,6 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
 def _simulate_once(route, scene, out_dir: Path, cond, texture: str, matching: str, width: int, threads: int, seed: int,
                    exhaustive_limit: int, spatial_neighbours: int, judge_spacing: float,
                    progress: Progress) -> Simulation:
-    from .sfm.conditions import fly
-    from .sfm.render import FieldRenderer
-
     images = out_dir / "images"
     images.mkdir(parents=True, exist_ok=True)
     shots = route.shots
@@ -281,9 +273,7 @@ def _simulate_once(route, scene, out_dir: Path, cond, texture: str, matching: st
                                  ground_reach=reach, seed=seed)
     names = [f"shot_{k:04d}.png" for k in range(len(shots))]
     t = time.perf_counter()
-    from concurrent.futures import ThreadPoolExecutor
-
-    from PIL import Image
+    from PIL import Image  # the sfm extra
 
     def render(k: int) -> np.ndarray:
         if cond.light:  # each photo its own noise stream: the same photos however many threads

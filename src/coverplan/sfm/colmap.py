@@ -88,6 +88,13 @@ MATCHINGS = ("spatial", "covisible")
 SPATIAL_NEIGHBOURS = 50
 
 
+def check_matching(kind: str) -> str:
+    """``kind`` if it names a way of pairing photos for large flights, else a one-line error."""
+    if kind not in MATCHINGS:
+        raise ParameterError(f"unknown matching {kind!r}; choose one of {', '.join(MATCHINGS)}")
+    return kind
+
+
 def write_position_priors(pycolmap, database: Path, names: list[str], positions: np.ndarray, sigma_m: float) -> None:
     """Each photo's recorded position (its GNSS tag, local metres) as a COLMAP pose prior."""
     db = pycolmap.Database.open(database) if hasattr(pycolmap.Database, "open") else pycolmap.Database(database)
@@ -119,6 +126,7 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     import time
 
     pycolmap = require_pycolmap()
+    check_matching(matching)
     pycolmap.logging.minloglevel = 2  # COLMAP's per-image log drowns the progress bars
     work_dir = Path(work_dir)
     if work_dir.exists():
@@ -148,8 +156,6 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     matching_kind = matching
     matching = pycolmap.FeatureMatchingOptions()
     matching.num_threads = threads
-    if matching_kind not in MATCHINGS:
-        raise ParameterError(f"matching must be one of {', '.join(MATCHINGS)}, got {matching_kind!r}")
     with _stage(progress, "SfM matching"):
         if len(names) <= exhaustive_limit:
             pycolmap.match_exhaustive(database, matching_options=matching, device=pycolmap.Device.cpu)

@@ -17,9 +17,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..drones import TYPICAL_GNSS, DroneProfile, PositionAccuracy, drone_of_route
+from ..drones import SURVEY_SHUTTER_S, DroneProfile, PoseError, drone_of_route
 from ..errors import ParameterError
 from ..flighttime import FlightModel
+from .render import _SUN as FIXED_SUN
 
 BIAS_CORRELATION_S = 300.0  # the flight-wide error's drift: correlated over about 5 minutes
 BATTERY_SWAP_S = 300.0  # between two battery flights
@@ -55,31 +56,6 @@ def get_conditions(name: str) -> Conditions:
         return CONDITIONS[str(name).lower()]
     except KeyError:
         raise ParameterError(f"unknown conditions {name!r}; choose one of {', '.join(CONDITIONS)}") from None
-
-
-@dataclass(frozen=True)
-class PoseError:
-    """The drone's own error, as 1-sigma values (metres, degrees)."""
-
-    bias_h: float
-    bias_v: float
-    jitter_h: float
-    jitter_v: float
-    heading_deg: float
-    pitch_deg: float
-    source: str = "gnss"
-
-    @classmethod
-    def of(cls, accuracy: PositionAccuracy, heading_deg: float = 1.5, pitch_deg: float = 0.5) -> "PoseError":
-        (bh, bv), (jh, jv) = accuracy.bias_sigma, accuracy.jitter_sigma
-        return cls(bh, bv, jh, jv, float(heading_deg), float(pitch_deg), accuracy.source)
-
-    @classmethod
-    def of_drone(cls, drone: DroneProfile | None) -> "PoseError":
-        if drone is None:
-            return cls.of(TYPICAL_GNSS)
-        return cls.of(drone.position, drone.heading_error_deg, drone.gimbal_error_deg)
-
 
 
 @dataclass
@@ -169,20 +145,20 @@ def fly(route, conditions: Conditions, seed: int = 0, drone: DroneProfile | None
         recorded = planned + jitter  # the receiver does not see its own bias
         heading = np.mod(heading + rng.normal(0.0, error.heading_deg, n), 360.0)
         pitch = pitch + rng.normal(0.0, error.pitch_deg, n)
-    # The sun: somewhere between mid-morning and mid-afternoon, moving with the clock.
+    # The sun: somewhere between mid-morning and mid-afternoon, moving with the clock (drawn
+    # either way, so that a draw's light does not depend on whether its poses were drawn).
     azimuth0, elevation = rng.uniform(0.0, 360.0), rng.uniform(30.0, 60.0)
-    if not conditions.light:
-        azimuth0, elevation = 142.0, 55.0  # the ideal renderer's fixed sun (35, -45, 82)
-    az = np.radians(azimuth0 + (SUN_DEG_PER_S * t if conditions.light else 0.0))
-    el = np.radians(np.full(n, elevation))
-    sun = np.column_stack([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.sin(el)])
     if conditions.light:
+        az = np.radians(azimuth0 + SUN_DEG_PER_S * t)
+        el = np.radians(elevation)
+        sun = np.column_stack([np.cos(el) * np.sin(az), np.cos(el) * np.cos(az), np.full(n, np.sin(el))])
         cloud = _drift(rng, t, 1.0, CLOUD_CORRELATION_S, 1)[:, 0]
         direct = np.clip(0.75 + 0.35 * cloud, 0.15, 1.0)  # mostly sunny, clouds now and then
         exposure = np.exp(rng.normal(0.0, 0.1, n))  # auto exposure meters each photo anew
         velocity = np.column_stack([rng.normal(0.0, HOVER_SPEED_SIGMA, (n, 2)), rng.normal(0.0, 0.05, n)])
     else:
+        sun = np.tile(FIXED_SUN, (n, 1))
         direct, exposure, velocity = np.ones(n), np.ones(n), np.zeros((n, 3))
-    shutter = drone.shutter_s if drone is not None else 1.0 / 500.0
+    shutter = drone.shutter_s if drone is not None else SURVEY_SHUTTER_S
     return FlownPhotos(positions, heading, pitch, t, velocity, sun, direct, exposure, shutter, int(seed), planned,
                        recorded)

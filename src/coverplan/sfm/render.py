@@ -178,6 +178,15 @@ class PhotoRenderer:
 # -- field conditions: physical textures, light, camera -----------------------------------------
 
 TEXTURE_FAMILIES = ("noise", "cells")
+
+
+def check_texture(family: str) -> str:
+    """``family`` if it names a texture family, else a one-line ParameterError."""
+    if family not in TEXTURE_FAMILIES:
+        from ..errors import ParameterError
+        raise ParameterError(f"unknown texture family {family!r}; choose one of {', '.join(TEXTURE_FAMILIES)}")
+    return family
+
 FINEST_M = 0.004  # plaster grain, sand, stone pores
 COARSEST_M = 4.0  # stains, weathering, patches
 _SKY_FIELD = 0.92  # sky radiance relative to a sunlit white wall
@@ -322,9 +331,10 @@ def tiles(points, normals, footprint) -> np.ndarray:
     pitch, width = 0.33, 0.22
     row = np.floor(s / pitch)
     f = np.mod(s, pitch) / pitch
-    gradient = 0.35 + 0.45 * f * _fade(pitch, footprint)  # each tile darkens under the one above
+    shown = _fade(pitch, footprint)
+    gradient = 0.35 + 0.45 * f * shown  # each tile darkens under the one above
     seam = _filtered_pulse(u + 0.5 * width * (row % 2), width, 0.012, footprint)
-    return np.where(_fade(pitch, footprint) > 0, gradient * (1.0 - 0.6 * seam), 0.55)
+    return np.where(shown > 0, gradient * (1.0 - 0.6 * seam), 0.55)
 
 
 class FieldRenderer(PhotoRenderer):
@@ -332,11 +342,8 @@ class FieldRenderer(PhotoRenderer):
 
     def __init__(self, scene, photo: PhotoCamera, ground_reach: float, family: str = "noise",
                  facades: bool = False, seed: int = 0):
-        if family not in TEXTURE_FAMILIES:
-            from ..errors import ParameterError
-            raise ParameterError(f"unknown texture family {family!r}; choose one of {', '.join(TEXTURE_FAMILIES)}")
+        self.family = check_texture(family)
         super().__init__(scene, photo, finest_texture_m=FINEST_M, ground_reach=ground_reach, seed=seed)
-        self.family = family
         self.facades = bool(facades)
         self.ground_z = float(scene.ground_z)
         self.ground_index = len(self.meshes) - 1
