@@ -21,9 +21,8 @@ import time
 from pathlib import Path
 
 from common import MESHES, table, write_json
-
 from coverplan import get_camera
-from coverplan.batch import BatchSettings, run_batch
+from coverplan.batch.run import BatchSettings, run_batch
 from coverplan.io import read_city_model
 
 

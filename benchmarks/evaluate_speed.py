@@ -12,12 +12,12 @@ import time
 
 import numpy as np
 import trimesh
-from common import write_json
 
+from common import write_json
 from coverplan import Route, evaluate, get_camera
-from coverplan.scene import scene_from_meshes
-from coverplan.surface import sample_surface
-from coverplan.visibility import imaging_pairs
+from coverplan.shots.surface import sample_surface
+from coverplan.shots.visibility import imaging_pairs
+from coverplan.world.scene import scene_from_meshes
 
 
 def building(n_faces: int) -> trimesh.Trimesh:

@@ -18,12 +18,12 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-from common import MESHES, table, write_json
-from plan_scenes import SCENES
 
+from common import MESHES, table, write_json
 from coverplan import evaluate, get_camera, load_scene, plan
-from coverplan.drones import get_drone
-from coverplan.flighttime import FlightModel
+from coverplan.equipment.drones import get_drone
+from coverplan.equipment.flighttime import FlightModel
+from plan_scenes import SCENES
 
 
 def shot_set(route) -> np.ndarray:

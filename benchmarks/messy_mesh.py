@@ -21,6 +21,7 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
+
 from common import big_building, table, write_json
 
 

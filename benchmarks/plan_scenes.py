@@ -15,9 +15,8 @@ from __future__ import annotations
 import argparse
 
 from common import MESHES, THESIS_3D, big_building, table, thesis_totals, timed, write_json
-
 from coverplan import evaluate, get_camera, load_scene, plan
-from coverplan.scene import scene_from_meshes
+from coverplan.world.scene import scene_from_meshes
 
 SCENES = {
     "square": ("square_prism.obj", []), "l": ("l_prism.obj", []), "h": ("h_prism.obj", []),

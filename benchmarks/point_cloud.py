@@ -15,8 +15,8 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
-from common import MESHES, RESULTS, table, write_json
 
+from common import MESHES, RESULTS, table, write_json
 from coverplan import evaluate, get_camera, load_scene, plan
 
 
@@ -52,7 +52,7 @@ def make_cloud(path, n_points: int, seed: int = 3) -> None:
 
 def voxelise(path, resolution: float) -> dict:
     """In a fresh process: read and voxelise, with that process's peak memory."""
-    from coverplan.pointcloud import point_obstacle
+    from coverplan.world.pointcloud import point_obstacle
     t = time.perf_counter()
     mesh, note = point_obstacle(path, resolution)
     return {"seconds": time.perf_counter() - t, "triangles": len(mesh.faces), "note": note,

@@ -3,7 +3,7 @@ the scan plus a nadir roof grid, under ideal, field and harsh conditions.
 
 For each sample scene the flights are planned at the same camera, GSD and security distance,
 their photos rendered on the textured scene as a drone would take them and run through COLMAP
-(``coverplan.simulate``); the table gives photos, path, flight time, planning time, photos
+(``coverplan.sfm.simulate``); the table gives photos, path, flight time, planning time, photos
 registered in the largest model, number of models and the share of the target surface with a
 3D point within 0.2 m, overall and per surface class, worst and median of the draws. Also the
 thesis's rule (``--rule thesis``) and the plan without its pose margin (``--margin none``).
@@ -18,11 +18,10 @@ import time
 from pathlib import Path
 
 from common import MESHES, table, write_json
-from structure_scan import scan_with_roof_grid, structure_scan
-
 from coverplan import evaluate, get_camera, load_scene, plan
 from coverplan.progress import Progress
-from coverplan.simulate import simulate
+from coverplan.sfm.simulate import simulate
+from structure_scan import scan_with_roof_grid, structure_scan
 
 SCENES = {
     "ring": ("ring_prism.obj", []),  # terrace and overhang
@@ -78,7 +77,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
     names = ["gabled"] if args.quick else (args.scenes or list(SCENES))
     if args.quick:  # a smoke run: small photos, one field draw, ours against the scan only
-        args.width, args.flights, args.draws = 480, ["coverplan", "structure-scan"], 1
+        args.width, args.flights, args.draws = 320, ["coverplan", "structure-scan"], 1
         args.conditions, args.textures = ["field"], ["noise"]
     camera = get_camera(CAMERA)
     rows = []

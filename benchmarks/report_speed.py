@@ -16,10 +16,9 @@ import time
 from pathlib import Path
 
 from common import MESHES, big_building, table, write_json
-
 from coverplan import evaluate, get_camera, load_scene, plan
 from coverplan.report import write_html_report
-from coverplan.scene import scene_from_meshes
+from coverplan.world.scene import scene_from_meshes
 
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-background-networking",
          "--disable-component-update", "--disable-sync", "--window-size=1300,1000"]

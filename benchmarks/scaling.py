@@ -24,7 +24,7 @@ sys.path.insert(0, {src!r}); sys.path.insert(0, {meshes!r})
 import trimesh
 from make_meshes import shapes_2d
 from coverplan import get_camera, plan
-from coverplan.scene import scene_from_meshes
+from coverplan.world.scene import scene_from_meshes
 from coverplan.voxel import grid_from_polygons, plan_2d
 planner, m = sys.argv[1], int(sys.argv[2])
 camera = get_camera("thesis80")

@@ -15,11 +15,11 @@ import numpy as np
 import shapely
 from shapely.ops import unary_union
 
-from coverplan.candidates import standoff
-from coverplan.orientation import heading_pitch
-from coverplan.planner import safety_margin
-from coverplan.reachability import ViewLimits
-from coverplan.route import Route
+from coverplan.flight.route import Route
+from coverplan.geometry.orientation import heading_pitch
+from coverplan.planning.settings import safety_margin
+from coverplan.shots.candidates import standoff
+from coverplan.shots.reachability import ViewLimits
 
 
 def footprint(scene):

@@ -22,12 +22,12 @@ import time
 
 import numpy as np
 import trimesh
-from common import MESHES, THESIS_2D, THESIS_2D_OBSTACLES, table, write_json
 from shapely.geometry import box as rect
 
+from common import MESHES, THESIS_2D, THESIS_2D_OBSTACLES, table, write_json
 from coverplan import evaluate, get_camera, plan
-from coverplan.scene import scene_from_meshes
 from coverplan.voxel import grid_from_polygons, plan_2d
+from coverplan.world.scene import scene_from_meshes
 
 sys.path.insert(0, str(MESHES))
 from make_meshes import shapes_2d  # noqa: E402

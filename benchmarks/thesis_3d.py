@@ -15,22 +15,13 @@ import argparse
 import statistics
 import time
 
-import numpy as np
 from common import MESHES, THESIS_3D, table, thesis_totals, write_json
-
-from coverplan import Camera, evaluate, load_scene, plan
-from coverplan.voxel import plan_3d
+from coverplan import evaluate, load_scene, plan
+from coverplan.voxel import plan_3d, thesis_camera
 
 SCENES = {"prism": ("thesis_prism.obj", []), "ring": ("ring_prism.obj", []), "pyramid": ("pyramid.obj", []),
           "fig411": ("thesis_prism.obj", ["fig411_obstacles.obj"])}
 START = [0.5, 49.5, 0.5]
-
-
-def thesis_camera() -> Camera:
-    """80 deg horizontal FOV with the thesis's 10 m vertical coverage at d_opt = 7 m."""
-    focal = 18.0 / np.tan(np.radians(40.0))
-    height = 2 * focal * np.tan(np.arctan(5.0 / 7.0))
-    return Camera(36.0, height, focal, 6000, int(round(6000 * height / 36.0)), "thesis80x71")
 
 
 def main(argv=None):
@@ -51,7 +42,7 @@ def main(argv=None):
         for flight in vox.flights:
             kind = flight.name.split(" at ")[0]
             match = next((v for k, v in thesis_paths if k == kind), None)
-            path_rows.append({"scene": name, "path": flight.name, "voxel_shots": flight.shots,
+            path_rows.append({"scene": name, "path": flight.name, "voxel_shots": flight.n_shots,
                               "voxel_path_m": flight.coverage_length, "voxel_s": flight.seconds,
                               "thesis_shots": match[0] if match else None, "thesis_path": match[1] if match else None,
                               "thesis_s": match[2] if match else None, "failure": flight.failure})

@@ -1,23 +1,25 @@
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
-import trimesh
-
-sys.path.insert(0, str(Path(__file__).parent))
-
-ROOT = Path(__file__).resolve().parents[1]
-MESHES = ROOT / "meshes"
 
 
 def pytest_addoption(parser):
     parser.addoption("--slow", action="store_true", default=False, help="also run tests marked slow")
 
 
+# The longest groups of the suite (minutes each), started first so that the two workers of
+# ``-n auto --dist loadgroup`` share them instead of one ending the run with a long tail.
+LONG_GROUPS = ("field", "random_scenes_1", "random_scenes_2", "benchmark_reconstruction")
+
+
+def _group(item) -> str | None:
+    mark = item.get_closest_marker("xdist_group")
+    return (mark.args[0] if mark.args else mark.kwargs.get("name")) if mark else None
+
+
 def pytest_collection_modifyitems(config, items):
+    items.sort(key=lambda item: LONG_GROUPS.index(_group(item)) if _group(item) in LONG_GROUPS else len(LONG_GROUPS))
     if config.getoption("--slow"):
         return
     skip = pytest.mark.skip(reason="slow; run with --slow")
@@ -26,21 +28,10 @@ def pytest_collection_modifyitems(config, items):
             item.add_marker(skip)
 
 
-def box(x0, y0, z0, x1, y1, z1) -> trimesh.Trimesh:
-    mesh = trimesh.creation.box(extents=[x1 - x0, y1 - y0, z1 - z0])
-    mesh.apply_translation([(x0 + x1) / 2, (y0 + y1) / 2, (z0 + z1) / 2])
-    return mesh
-
-
 @pytest.fixture
 def thesis_camera():
     from coverplan import get_camera
     return get_camera("thesis80")
-
-
-def gsd_for(camera, d_opt: float) -> float:
-    """The GSD whose optimal distance is ``d_opt`` for this camera."""
-    return float(camera.gsd_at(d_opt))
 
 
 @pytest.fixture
@@ -55,14 +46,21 @@ def write_mesh(tmp_path):
 np.set_printoptions(precision=4, suppress=True)
 
 
-# A house near Stuttgart: a 10 x 8 x 6 m box whose corner sits at these UTM 32N coordinates.
-UTM_EAST, UTM_NORTH, UTM_BASE = 512_300.0, 5_403_830.0, 250.0
+# The jobs several test files plan, planned once per test process.
+
+@pytest.fixture(scope="session")
+def house_job():
+    """The gabled house for a Phantom 4 Pro at 4 mm/px, 3 m security (the simulate sample)."""
+    from coverplan import get_camera, load_scene, plan
+    from tests.helpers import MESHES
+    scene = load_scene(MESHES / "gabled_house.obj")
+    return scene, plan(scene, get_camera("phantom4pro"), gsd=0.004, security=3.0)
 
 
-def utm_house(tmp_path, base: float = UTM_BASE):
-    """The box in EPSG:25832 coordinates, written as an OBJ; returns its path."""
-    mesh = box(0, 0, 0, 10, 8, 6)
-    mesh.apply_translation([UTM_EAST, UTM_NORTH, base])
-    path = tmp_path / "house.obj"
-    mesh.export(path)
-    return path
+@pytest.fixture(scope="session")
+def ring_job():
+    """The README's sample job: the ring prism for a Phantom 4 Pro at 4 mm/px, 3 m security."""
+    from coverplan import get_camera, load_scene, plan
+    from tests.helpers import MESHES
+    scene = load_scene(MESHES / "ring_prism.obj")
+    return scene, plan(scene, get_camera("phantom4pro"), gsd=0.004, security=3.0)

@@ -8,9 +8,9 @@ import subprocess
 import sys
 
 import pytest
-from conftest import MESHES, box
 
 from coverplan.cli import main
+from tests.helpers import MESHES, box
 
 L = str(MESHES / "l_prism.obj")
 CITY = MESHES / "citygml"

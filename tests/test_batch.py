@@ -11,17 +11,18 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import MESHES
-from independent import polyline_min_distance
+
+from tests.helpers import MESHES
+from tests.independent import polyline_min_distance
 
 pytest.importorskip("distributed")
 import cloudpickle  # noqa: E402  (installed with distributed)
 
 from coverplan import get_camera, load_scene, plan  # noqa: E402
-from coverplan.batch import BatchSettings, completed_row, folder_names, plan_building, run_batch, select_buildings  # noqa: E402
+from coverplan.batch.run import BatchSettings, completed_row, folder_names, plan_building, run_batch, select_buildings  # noqa: E402
 from coverplan.errors import ParameterError  # noqa: E402
+from coverplan.flight.route import Route  # noqa: E402
 from coverplan.io import read_city_model  # noqa: E402
-from coverplan.route import Route  # noqa: E402
 
 CITY = MESHES / "citygml" / "lod2_buildings_v2.json.gz"
 CORNER = "FZK_GUID_1F3E679D-E226-4535-926C-7390977FB25A"  # 6 x 8 m house at (0, 0)
@@ -156,7 +157,7 @@ def test_every_building_flies_over_the_dtm_given(tmp_path, model):
     rasterio = pytest.importorskip("rasterio")
     from rasterio.transform import from_origin
 
-    from coverplan.batch import BuildingJob
+    from coverplan.batch.run import BuildingJob
 
     def ground(x, y):
         return 0.1 * x - 0.5 + 0.02 * y  # 1.1 m across the house; 6 m across the 60 m site

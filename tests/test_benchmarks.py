@@ -11,7 +11,8 @@ BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
 SCRIPTS = sorted(p.stem for p in BENCH.glob("*.py") if p.stem not in ("common", "structure_scan"))  # helpers
 
 
-@pytest.mark.parametrize("name", SCRIPTS)
+@pytest.mark.parametrize("name", [pytest.param(s, marks=pytest.mark.xdist_group("benchmark_reconstruction"))
+                                  if s == "reconstruction" else s for s in SCRIPTS])
 def test_benchmark_quick(name, capsys, monkeypatch):
     monkeypatch.syspath_prepend(str(BENCH))
     monkeypatch.setattr(sys, "argv", [name, "--quick"])

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from coverplan import PRESETS, Camera, ParameterError, get_camera
-from coverplan.orientation import angle_between_deg, camera_axes, heading_pitch, view_direction
+from coverplan.geometry.orientation import angle_between_deg, camera_axes, heading_pitch, view_direction
 
 
 def test_phantom4pro_derived_values():

@@ -7,12 +7,12 @@ import json
 
 import numpy as np
 import pytest
-from conftest import MESHES
 
 from coverplan import InputFileError, ParameterError, evaluate, get_camera, load_scene, plan
 from coverplan.cli import main
-from coverplan.repair import planner_check_samples
 from coverplan.io.city import parse_crs, triangulate_rings
+from coverplan.shots.repair import planner_check_samples
+from tests.helpers import MESHES
 
 CITY = MESHES / "citygml"
 HOUSE = "FZK_GUID_1F3E679D-E226-4535-926C-7390977FB25A"  # 6 x 8 m, 11 m ridge, corner at (0, 0)

@@ -7,16 +7,16 @@ import math
 
 import numpy as np
 import pytest
-from conftest import MESHES
 
 from coverplan import get_camera, load_scene
 from coverplan.cli import main
-from coverplan.drones import DRONES, POSITION_MARGIN_M, TYPICAL_GNSS, get_drone, security_shortfall
-from coverplan.margin import NO_MARGIN, margin_for, tightened
-from coverplan.reconstructability import MatchRule
-from coverplan.route import Route
+from coverplan.equipment.drones import DRONES, POSITION_MARGIN_M, TYPICAL_GNSS, get_drone, security_shortfall
+from coverplan.equipment.margin import NO_MARGIN, margin_for, tightened
+from coverplan.flight.route import Route
 from coverplan.sfm import render
 from coverplan.sfm.conditions import BIAS_CORRELATION_S, CONDITIONS, fly, get_conditions, photo_times
+from coverplan.shots.reconstructability import MatchRule
+from tests.helpers import MESHES
 
 
 def line_route(n=400, drone=None, spacing=2.0):

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import box, gsd_for
-from independent import images
 
 from coverplan import Route, evaluate
-from coverplan.scene import scene_from_meshes
-from coverplan.surface import SurfaceSamples
+from coverplan.shots.surface import SurfaceSamples
+from coverplan.world.scene import scene_from_meshes
+from tests.helpers import box, gsd_for
+from tests.independent import images
 
 D_OPT = 7.0
 SECURITY = 3.0

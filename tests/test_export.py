@@ -1,6 +1,6 @@
 """Exports parsed back by independent readers: positions to 0.1 m, headings to 0.5 degrees.
 
-Coordinates go back through pyproj directly (not coverplan.geo), true headings are checked
+Coordinates go back through pyproj directly (not coverplan.geometry.geo), true headings are checked
 against geodesic azimuths of each waypoint's local heading, and the file structure against
 what QGroundControl, Litchi and Google Earth read.
 """
@@ -12,13 +12,13 @@ import json
 
 import numpy as np
 import pytest
-from conftest import MESHES
 from lxml import etree
 from pyproj import Geod, Transformer
 
 from coverplan import Route, get_camera, load_scene, plan
 from coverplan.cli import main
 from coverplan.io import writer
+from tests.helpers import MESHES
 
 HOUSE = "FZK_GUID_1F3E679D-E226-4535-926C-7390977FB25A"
 GEOD = Geod(ellps="WGS84")

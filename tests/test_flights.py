@@ -7,16 +7,16 @@ import math
 import numpy as np
 import pytest
 import trimesh
-from conftest import MESHES, box
-from independent import polyline_min_distance
 
 from coverplan import evaluate, load_scene, plan
-from coverplan.drones import DRONES, get_drone, with_gimbal
+from coverplan.equipment.drones import DRONES, get_drone, with_gimbal
+from coverplan.equipment.flighttime import FlightModel
 from coverplan.errors import ParameterError
-from coverplan.flighttime import FlightModel
+from coverplan.flight.route import Route
 from coverplan.io import export_route
-from coverplan.route import Route
-from coverplan.scene import scene_from_meshes
+from coverplan.world.scene import scene_from_meshes
+from tests.helpers import MESHES, box
+from tests.independent import polyline_min_distance
 
 LIMIT_MIN = 3.0
 

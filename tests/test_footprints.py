@@ -101,9 +101,8 @@ def test_footprint_mistakes_are_named(geojson, tmp_path):
 def test_bundled_footprints_plan_as_the_readme_says(tmp_path, capsys):
     """The README's command on meshes/footprints.geojson: the gabled house is planned safe
     around its three neighbours."""
-    from conftest import MESHES
-
-    from coverplan.route import Route
+    from coverplan.flight.route import Route
+    from tests.helpers import MESHES
     out = tmp_path / "house.json"
     assert main(["plan", str(MESHES / "footprints.geojson"), "--building", "house", "--height-attribute", "height",
                  "--roof-attribute", "ridge", "--camera", "phantom4pro", "--gsd", "0.004", "--security", "3",

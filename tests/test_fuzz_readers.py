@@ -13,11 +13,11 @@ import json
 
 import pytest
 import trimesh
-from conftest import MESHES, box
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from coverplan import InputFileError, ParameterError, Route, RouteFormatError, load_scene
+from tests.helpers import MESHES, box
 
 EXAMPLES = 25
 

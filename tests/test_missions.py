@@ -7,15 +7,15 @@ import json
 
 import numpy as np
 import pytest
-from conftest import MESHES, UTM_BASE, UTM_EAST, UTM_NORTH, utm_house
-from independent import polyline_min_distance
 from pyproj import Transformer
 
 from coverplan import Route, get_camera, load_scene, plan
 from coverplan.cli import main
-from coverplan.evaluate import evaluate
+from coverplan.evaluation import evaluate
+from coverplan.flight.missions import mission_to_route
 from coverplan.io import read_mission
-from coverplan.io.missions import mission_to_route
+from tests.helpers import MESHES, UTM_BASE, UTM_EAST, UTM_NORTH, utm_house
+from tests.independent import polyline_min_distance
 
 CRS = "EPSG:25832"
 GSD, SECURITY = 0.004, 3.0

@@ -4,12 +4,12 @@ the lattice of, and then gives exactly the graph built from scratch."""
 import numpy as np
 import pytest
 import trimesh
-from conftest import MESHES, box
 
 from coverplan import load_scene
-from coverplan.pathing import build_flight_graph, build_lattice, lattice_box
-from coverplan.reachability import scene_limits
-from coverplan.scene import scene_from_meshes
+from coverplan.flight.pathing import build_flight_graph, build_lattice, lattice_box
+from coverplan.shots.reachability import scene_limits
+from coverplan.world.scene import scene_from_meshes
+from tests.helpers import MESHES, box
 
 SECURITY, D_OPT, MARGIN, H = 3.0, 7.0, 0.06, 2.0
 

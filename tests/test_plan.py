@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from conftest import MESHES, box, gsd_for
-from independent import images, polyline_min_distance
 
 from coverplan import PlanningError, Route, evaluate, get_camera, load_scene, plan
 from coverplan.cli import main
-from coverplan.scene import scene_from_meshes
-from coverplan.surface import CLASS_NAMES
-from coverplan.visibility import widest_pair_angle
+from coverplan.shots.surface import CLASS_NAMES
+from coverplan.shots.visibility import widest_pair_angle
+from coverplan.world.scene import scene_from_meshes
+from tests.helpers import MESHES, box, gsd_for
+from tests.independent import images, polyline_min_distance
 
 SECURITY = 3.0
 SCENES = {
@@ -107,7 +107,7 @@ def test_planner_claims_recheck(planned):
     """On the planner's own check samples, the evaluator covers everything the planner does not
     list, finds unreachable what it lists as such, and the planner's figure is not above its
     (the planner counts a view only with 1 % to spare)."""
-    from coverplan.repair import planner_check_samples
+    from coverplan.shots.repair import planner_check_samples
     for name, (scene, route, _ev) in planned.items():
         ev = evaluate(route, scene, samples=planner_check_samples(scene, route))
         listed = {tuple(np.round(u["position"], 6)) for u in route.uncovered}
@@ -271,7 +271,7 @@ def test_same_position_different_headings_stay_two_shots(thesis_camera, tmp_path
                   {"gsd_m": gsd_for(thesis_camera, 7.0), "security_m": SECURITY})
     back = Route.load(route.save(tmp_path / "two.json"))
     assert back.shot.sum() == 2 and list(back.heading_deg[1:3]) == [0, 30]
-    ev = back.evaluate(scene)
+    ev = evaluate(back, scene)
     assert ev.metrics["shots"] == 2 and ev.metrics["db_viewpoints_m"]["min"] == 0.0
 
 

@@ -6,13 +6,13 @@ from __future__ import annotations
 import laspy
 import numpy as np
 import pytest
-from conftest import box
-from independent import polyline_min_distance
 from scipy.spatial import cKDTree
 
 from coverplan import evaluate, get_camera, load_scene, plan
 from coverplan.errors import InputFileError, ParameterError
-from coverplan.pointcloud import parse_classes, voxel_mesh
+from coverplan.world.pointcloud import parse_classes, voxel_mesh
+from tests.helpers import box
+from tests.independent import polyline_min_distance
 
 SECURITY = 2.0
 

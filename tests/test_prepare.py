@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import trimesh
-from conftest import MESHES, box, gsd_for
 
 from coverplan import PlanningError, evaluate, get_camera, load_scene, plan
-from coverplan.merge import merge_into_target
-from coverplan.prepare import orient_faces, prepare_mesh
-from coverplan.scene import scene_from_meshes
-from coverplan.surface import sample_surface
+from coverplan.shots.surface import sample_surface
+from coverplan.world.merge import merge_into_target
+from coverplan.world.prepare import orient_faces, prepare_mesh
+from coverplan.world.scene import scene_from_meshes
+from tests.helpers import MESHES, box, gsd_for
 
 
 def messy_box(seed=0, flip_fraction=0.3, drop=0):

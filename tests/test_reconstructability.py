@@ -5,10 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.sparse as sp
-from conftest import box
 
 from coverplan import evaluate, get_camera, plan
-from coverplan.reconstructability import (
+from coverplan.shots.reconstructability import (
     MatchRule,
     add_sharp_views,
     candidate_links,
@@ -18,8 +17,9 @@ from coverplan.reconstructability import (
     sharp_targets,
     shot_links,
 )
-from coverplan.scene import scene_from_meshes
-from coverplan.visibility import has_pair_between, widest_pair_angle
+from coverplan.shots.visibility import has_pair_between, widest_pair_angle
+from coverplan.world.scene import scene_from_meshes
+from tests.helpers import box
 
 
 def _rays(*angles_deg):
@@ -114,17 +114,6 @@ def test_default_plan_links_every_photo_and_thesis_rule_does_not_have_to():
     assert len(thesis.shots) < len(route.shots)
 
 
-@pytest.fixture(scope="module")
-def ring_job():
-    """The README's sample job: the ring prism for a Phantom 4 Pro at 4 mm/px."""
-    from conftest import MESHES
-
-    from coverplan import load_scene
-
-    scene = load_scene(MESHES / "ring_prism.obj")
-    return scene, plan(scene, get_camera("phantom4pro"), gsd=0.004, security=3.0)
-
-
 @pytest.mark.parametrize("spacing", [0.25, 0.2])
 def test_links_hold_on_the_evaluators_samples(ring_job, spacing):
     """The evaluator, on samples of its own (0.25 m, and 0.2 m), finds every photo in one
@@ -136,15 +125,14 @@ def test_links_hold_on_the_evaluators_samples(ring_job, spacing):
 
 
 def test_bad_rule_settings_are_one_line_errors(capsys, tmp_path):
-    from conftest import MESHES
-
     from coverplan.cli import main
+    from tests.helpers import MESHES
     base = ["plan", str(MESHES / "square_prism.obj"), "--camera", "thesis80", "--gsd", "0.005",
             "--security", "3", "-o", str(tmp_path / "r.json")]
-    for extra, text in ((["--max-pair-deg", "120"], "--max-pair-deg must be in (0, 90)"),
-                        (["--min-overlap", "0"], "--min-overlap must be in (0, 1]"),
+    for extra, text in ((["--max-pair-deg", "120"], "(--max-pair-deg) must be in (0, 90)"),
+                        (["--min-overlap", "0"], "(--min-overlap) must be in (0, 1]"),
                         (["--rule", "thesis", "--max-pair-deg", "30"], "--max-pair-deg belongs to --rule sfm"),
-                        (["--sharp-views", "-1"], "--sharp-views must be >= 0"),
+                        (["--sharp-views", "-1"], "(--sharp-views) must be a whole number >= 0"),
                         (["--rule", "thesis", "--sharp-views", "2"], "--sharp-views belongs to --rule sfm"),
                         (["--min-triangulation-deg", "40"], "must be below the widest matchable pair")):
         assert main(base + extra) == 2
@@ -191,7 +179,7 @@ def test_sharp_views_take_the_square_view_or_the_best_there_is():
 
 def _best_incidence(route, mesh, points, normals):
     """Independently of the planner: per point, the smallest incidence of a shot that images it."""
-    from independent import images
+    from tests.independent import images
     best = np.full(len(points), np.inf)
     for k in route.shots:
         pos = route.positions[k]
@@ -207,9 +195,9 @@ def test_default_plan_sees_every_face_squarely_where_it_can():
     """Gabled house: every wall and roof point can be seen within 35 deg of its normal, and the
     default plan does so, checked on points and ray casts of this test's own."""
     import trimesh
-    from conftest import MESHES
 
     from coverplan import load_scene
+    from tests.helpers import MESHES
     scene = load_scene(MESHES / "gabled_house.obj")
     mesh = scene.targets[0].mesh
     points, face = trimesh.sample.sample_surface_even(mesh, 4000, seed=11)
@@ -238,9 +226,9 @@ def test_overhang_undersides_are_seen_as_squarely_as_the_gimbal_allows(monkeypat
     points and ray casts; without them the plan sees it at a slant."""
     import trimesh
 
-    from coverplan import planner
-    from coverplan.candidates import Candidates
-    from coverplan.repair import GapCloser
+    from coverplan.planning import stages
+    from coverplan.shots.candidates import Candidates
+    from coverplan.shots.repair import GapCloser
     target = trimesh.boolean.union([box(0, 0, 0, 6, 6, 9.5), box(-3, -3, 9, 9, 9, 13)], engine="manifold")
     scene = scene_from_meshes([target])
     mesh = scene.targets[0].mesh
@@ -260,6 +248,6 @@ def test_overhang_undersides_are_seen_as_squarely_as_the_gimbal_allows(monkeypat
     monkeypatch.setattr(GapCloser, "sharpen", lambda self, chosen, views, kinds=None: chosen)
     coarse = _best_incidence(plan(scene, camera, gsd=0.004, security=3.0), mesh, points, normals)
     assert np.percentile(coarse, 90) > 44.0, np.percentile(coarse, [50, 90])
-    monkeypatch.setattr(planner, "under_overhangs", lambda *a, **k: Candidates.empty())
+    monkeypatch.setattr(stages, "under_overhangs", lambda *a, **k: Candidates.empty())
     slanted = _best_incidence(plan(scene, camera, gsd=0.004, security=3.0), mesh, points, normals)
     assert np.percentile(slanted, 90) > 45.0 and np.median(slanted) > 40.0, np.percentile(slanted, [50, 90])

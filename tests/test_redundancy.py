@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from conftest import box
 
 from coverplan import evaluate, get_camera, plan
-from coverplan.redundancy import CheckViews, SharpViews, drop_redundant
-from coverplan.scene import scene_from_meshes
+from coverplan.shots.redundancy import CheckViews, SharpViews, drop_redundant
+from coverplan.world.scene import scene_from_meshes
+from tests.helpers import box
 
 # Four shots (candidates 10-13) each imaging the same 6 samples, their rays 0, 10, 20 and
 # 30 deg off the normal: any three of them hold a pair inside the [5, 35] deg window.
@@ -41,7 +41,7 @@ def test_keeps_the_only_pair_inside_the_window():
     assert drop_redundant(SHOTS, _views(min_views=2)).tolist() == [10, 11]
     # A 12 deg lower bound: 10 and 11 are too close, so 12 stays and 11 goes instead.
     views = _views(min_views=2)
-    views.min_tri_deg = 12.0
+    views.min_triangulation_deg = 12.0
     assert drop_redundant(SHOTS, views).tolist() == [10, 12]
 
 

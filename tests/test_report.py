@@ -7,11 +7,11 @@ import time
 
 import numpy as np
 import pytest
-from conftest import MESHES, gsd_for
 
 from coverplan import evaluate, load_scene, plan
 from coverplan.cli import main
 from coverplan.report import write_figures, write_html_report
+from tests.helpers import MESHES, gsd_for
 
 CHROME_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-background-networking",
                 "--disable-component-update", "--disable-sync", "--window-size=1300,1000"]
@@ -116,12 +116,11 @@ def test_cli_report_and_verbose_timings(tmp_path, capsys):
 def test_pictures_frame_the_target_and_its_flight_not_the_tile():
     """A house with a neighbour 300 m off (a city tile's far corner): the overview, the slices
     and the report's first view hold the house and every waypoint, and stop well short of it."""
-    from conftest import box
-
     from coverplan import get_camera
     from coverplan.report.frame import focus_bounds
     from coverplan.report.html import report_data
-    from coverplan.scene import scene_from_meshes
+    from coverplan.world.scene import scene_from_meshes
+    from tests.helpers import box
     scene = scene_from_meshes([box(0, 0, 0, 10, 8, 6)], [box(300, 300, 0, 320, 320, 12)])
     route = plan(scene, get_camera("phantom4pro"), gsd=0.004, security=3.0, lp_time_limit=0)
     lo, hi = focus_bounds(route, scene)

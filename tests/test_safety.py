@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 import trimesh
-from conftest import box
 
-from coverplan.raycast import RayCaster
-from coverplan.safety import ClearanceModel
+from coverplan.geometry.clearance import ClearanceModel
+from coverplan.geometry.raycast import RayCaster
+from tests.helpers import box
 
 
 def scene_meshes():
@@ -29,9 +29,9 @@ def settle_with(request, monkeypatch):
     """Unsure cases settled by one FCL query each, by triangle_distance's exact distances to
     every triangle, or to the triangles near each query (the scene's boxes are big triangles
     among the sphere's small ones: NearTriangles tests those against everything)."""
-    from coverplan import safety
-    monkeypatch.setattr(safety, "VECTORISED_UP_TO_TRIANGLES", 10 ** 6 if request.param == "vectorised" else 0)
-    monkeypatch.setattr(safety, "LOCAL_BELOW_TRIANGLES", 10 ** 6 if request.param == "near" else 0)
+    from coverplan.geometry import clearance
+    monkeypatch.setattr(clearance, "VECTORISED_UP_TO_TRIANGLES", 10 ** 6 if request.param == "vectorised" else 0)
+    monkeypatch.setattr(clearance, "LOCAL_BELOW_TRIANGLES", 10 ** 6 if request.param == "near" else 0)
     return request.param
 
 
@@ -89,11 +89,11 @@ def test_polyline_clearance_is_exact_where_it_matters():
 @pytest.mark.parametrize("exact", [True, False])
 def test_halving_segment_check_for_big_meshes(monkeypatch, exact):
     """The path big meshes take (KD bounds on halved pieces) agrees with the truth."""
-    from coverplan import safety
+    from coverplan.geometry import clearance
     meshes = scene_meshes()
-    monkeypatch.setattr(safety, "LOCAL_BELOW_TRIANGLES", 0)
+    monkeypatch.setattr(clearance, "LOCAL_BELOW_TRIANGLES", 0)
     model = ClearanceModel(meshes, rays=RayCaster(meshes), cover_edge=0.5)
-    monkeypatch.setattr(safety, "HALVING_FROM_TRIANGLES", 0)
+    monkeypatch.setattr(clearance, "HALVING_FROM_TRIANGLES", 0)
     rng = np.random.default_rng(7)
     a = rng.uniform([-6, -6, 1], [22, 24, 15], size=(200, 3))
     b = a + rng.normal(size=(200, 3)) * 6

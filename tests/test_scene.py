@@ -1,10 +1,10 @@
 import numpy as np
 import pytest
 import trimesh
-from conftest import MESHES, box
 
 from coverplan import InputFileError, ParameterError, load_scene
-from coverplan.scene import scene_from_meshes
+from coverplan.world.scene import scene_from_meshes
+from tests.helpers import MESHES, box
 
 
 @pytest.mark.parametrize("ext", ["obj", "ply", "stl", "off", "glb"])

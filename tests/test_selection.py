@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from coverplan.selection import coverage_state, select_views
+from coverplan.shots.selection import coverage_state, select_views
 
 
 def _ray(azimuth_deg: float) -> np.ndarray:

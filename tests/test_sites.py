@@ -11,16 +11,16 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import box
 from hypothesis import HealthCheck, Phase, given, seed, settings
 from hypothesis import strategies as st
-from independent import polyline_min_distance
 from scipy.spatial import cKDTree
-from test_pointcloud import write_las
-from test_properties import CLAIM_TOLERANCE_PP, plan_or_refusal
-from test_terrain import CELL, points_along, write_dtm
 
 from coverplan import PRESETS, evaluate, load_scene
+from tests.helpers import box
+from tests.independent import polyline_min_distance
+from tests.test_pointcloud import write_las
+from tests.test_properties import CLAIM_TOLERANCE_PP, plan_or_refusal
+from tests.test_terrain import CELL, points_along, write_dtm
 
 EXAMPLES = 30  # about 25 s; --slow adds 300 more
 TRUNK_R = 0.3

@@ -6,9 +6,9 @@ from __future__ import annotations
 import json
 
 import numpy as np
-from conftest import UTM_EAST, UTM_NORTH, utm_house
 
 from coverplan.cli import main
+from tests.helpers import UTM_EAST, UTM_NORTH, utm_house
 
 EAST, NORTH, BASE = UTM_EAST, UTM_NORTH, 513.0
 ARGS = ["--camera", "phantom4pro", "--gsd", "0.004", "--security", "3", "--crs", "EPSG:25832",

@@ -1,10 +1,10 @@
 import numpy as np
 import pytest
-from conftest import MESHES, box
 
 from coverplan import load_scene
-from coverplan.scene import scene_from_meshes
-from coverplan.surface import CLASS_NAMES, sample_surface
+from coverplan.shots.surface import CLASS_NAMES, sample_surface
+from coverplan.world.scene import scene_from_meshes
+from tests.helpers import MESHES, box
 
 
 def test_box_samples_cover_its_area_with_outward_normals():

@@ -9,15 +9,15 @@ import json
 import numpy as np
 import pytest
 import trimesh
-from conftest import UTM_EAST, UTM_NORTH, box
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.interpolate import RegularGridInterpolator
 
 from coverplan import get_camera, load_scene, plan
 from coverplan.cli import main
-from coverplan.route import Route
-from coverplan.terrain import Terrain
+from coverplan.flight.route import Route
+from coverplan.world.terrain import Terrain
+from tests.helpers import UTM_EAST, UTM_NORTH, box
 
 rasterio = pytest.importorskip("rasterio")
 from rasterio.transform import from_origin  # noqa: E402
@@ -261,7 +261,8 @@ def test_citygml_relief_feature_is_read_as_terrain(tmp_path):
 
 
 def test_footprints_stand_on_the_terrain(tmp_path):
-    from shapely.geometry import box as rect, mapping
+    from shapely.geometry import box as rect
+    from shapely.geometry import mapping
     doc = {"type": "FeatureCollection", "crs": {"type": "name", "properties": {"name": "EPSG:25832"}},
            "features": [{"type": "Feature", "id": "h", "properties": {"h": 6.0},
                          "geometry": mapping(rect(UTM_EAST - 6, UTM_NORTH - 4, UTM_EAST + 6, UTM_NORTH + 4))}]}
@@ -334,12 +335,11 @@ def test_report_draws_the_ground_under_its_frame(tmp_path):
     switch; the page renders without errors."""
     import base64
 
-    from test_report import chromium, open_report
-
     from coverplan import evaluate
     from coverplan.report import write_html_report
     from coverplan.report.frame import focus_bounds
     from coverplan.report.html import MAX_TERRAIN_CELLS, report_data
+    from tests.test_report import chromium, open_report
 
     dtm, house, _out, route = plan_site(tmp_path, slope)
     scene = load_scene(house, terrain=dtm)

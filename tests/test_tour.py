@@ -5,7 +5,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from coverplan.tour import nearest_neighbour, solve_tour, tour_length
+from coverplan.flight.tour import nearest_neighbour, solve_tour, tour_length
 
 
 def _euclidean(points):

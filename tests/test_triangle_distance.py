@@ -6,7 +6,7 @@ import trimesh
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from coverplan.triangle_distance import (
+from coverplan.geometry.triangle_distance import (
     NearTriangles,
     point_triangle_distance,
     segment_segment_distance,

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import numpy as np
-from conftest import box
-from independent import images
 
 from coverplan import get_camera
-from coverplan.scene import scene_from_meshes
-from coverplan.visibility import imaging_pairs
+from coverplan.shots.visibility import imaging_pairs
+from coverplan.world.scene import scene_from_meshes
+from tests.helpers import box
+from tests.independent import images
 
 MAX_RANGE_M, MAX_INCIDENCE_DEG = 12.0, 60.0
 

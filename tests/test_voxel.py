@@ -2,25 +2,28 @@
 
 from __future__ import annotations
 
-import sys
-
 import numpy as np
 import pytest
 import trimesh
-from conftest import MESHES, box, gsd_for
 from shapely.geometry import box as rect
 
 from coverplan import evaluate, load_scene, plan
-from coverplan.repair import planner_check_samples
-from coverplan.scene import scene_from_meshes
-from coverplan.voxel import OBSTACLE, TARGET, grid_from_polygons, grid_from_scene, plan_2d, plan_3d, view_plan
+from coverplan.shots.repair import planner_check_samples
+from coverplan.voxel import (
+    OBSTACLE,
+    TARGET,
+    grid_from_polygons,
+    grid_from_scene,
+    plan_2d,
+    plan_3d,
+    thesis_camera,
+    view_plan,
+)
 from coverplan.voxel.view import shot_region, surface_cells
+from coverplan.world.scene import scene_from_meshes
+from tests.helpers import MESHES, box, gsd_for, load_script
 
-sys.path.insert(0, str(MESHES))
-from make_meshes import shapes_2d  # noqa: E402
-
-sys.path.insert(0, str(MESHES.parent / "benchmarks"))
-from thesis_3d import thesis_camera  # noqa: E402
+shapes_2d = load_script(MESHES / "make_meshes.py").shapes_2d
 
 
 @pytest.mark.parametrize("name", ["square", "l", "h", "triangle"])

@@ -7,15 +7,15 @@ import zipfile
 
 import numpy as np
 import pytest
-from conftest import MESHES
 from lxml import etree
 from pyproj import Geod
 
 from coverplan import load_scene, plan
-from coverplan.drones import get_drone
+from coverplan.equipment.drones import get_drone
 from coverplan.errors import ParameterError
-from coverplan.geo import from_lonlat, to_lonlat
+from coverplan.geometry.geo import from_lonlat, to_lonlat
 from coverplan.io import export_route
+from tests.helpers import MESHES
 
 NS = {"kml": "http://www.opengis.net/kml/2.2", "wpml": "http://www.dji.com/wpmz/1.0.2"}
 

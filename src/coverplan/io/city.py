@@ -11,8 +11,8 @@ import mapbox_earcut
 import numpy as np
 import trimesh
 
-from ..errors import InputFileError, ParameterError
-from . import MeshSource
+from coverplan.errors import InputFileError, ParameterError
+from coverplan.io.registry import MeshSource
 
 DEFAULT_CONTEXT_RADIUS = 150.0
 BUILDING_KINDS = ("Building", "Bridge", "Tunnel")

@@ -11,9 +11,10 @@ import zlib
 
 import numpy as np
 
-from ..errors import InputFileError
-from . import MeshSource, open_maybe_gzip, register_city_reader, register_reader
-from .city import CityModel, CityObject, parse_crs, triangulate_rings
+from coverplan.errors import InputFileError
+from coverplan.files import open_maybe_gzip
+from coverplan.io.city import CityModel, CityObject, parse_crs, triangulate_rings
+from coverplan.io.registry import MeshSource, register_city_reader, register_reader
 
 
 def _load(path):

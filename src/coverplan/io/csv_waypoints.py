@@ -6,8 +6,9 @@ import csv
 import io
 from pathlib import Path
 
-from .. import geo
-from . import register_writer, write_atomic
+from coverplan.files import write_atomic
+from coverplan.geometry import geo
+from coverplan.io.registry import register_writer
 
 COLUMNS = ["index", "x_m", "y_m", "z_m", "altitude_above_ground_m", "heading_deg", "gimbal_pitch_deg", "shot", "leg"]
 

@@ -15,9 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputFileError, ParameterError
-from . import MeshSource, read_json, register_reader
-from .city import CityModel, CityObject, parse_crs, triangulate_rings
+from coverplan.errors import InputFileError, ParameterError
+from coverplan.files import read_json
+from coverplan.io.city import CityModel, CityObject, parse_crs, triangulate_rings
+from coverplan.io.registry import MeshSource, register_reader
 
 EXTENSIONS = ("geojson", "gpkg", "shp")
 

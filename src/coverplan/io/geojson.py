@@ -9,8 +9,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from . import register_writer, write_atomic
-from .flight import geo_flight
+from coverplan.files import write_atomic
+from coverplan.io.geoflight import geo_flight
+from coverplan.io.registry import register_writer
 
 
 @register_writer("geojson", ".geojson")

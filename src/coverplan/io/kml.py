@@ -8,8 +8,10 @@ from xml.sax.saxutils import escape
 
 import numpy as np
 
-from . import register_writer, write_atomic
-from .flight import geo_flight
+from coverplan.files import write_atomic
+from coverplan.geometry import geo
+from coverplan.io.geoflight import geo_flight
+from coverplan.io.registry import register_writer
 
 KML_NS = "http://www.opengis.net/kml/2.2"
 
@@ -41,7 +43,6 @@ def write_kml(route, path, name: str | None = None, **_ignored) -> list[Path]:
    </Placemark>""")
     outline = ""
     if route.extra.get("target_outline"):
-        from .. import geo
         ring = np.asarray(route.extra["target_outline"], dtype=float)
         lon, lat, h = geo.to_lonlat(route.frame, ring)
         ring_alt = h if absolute else np.zeros(len(ring))

@@ -10,8 +10,11 @@ from pathlib import Path
 
 import numpy as np
 
-from . import register_mission_reader, register_writer, write_atomic
-from .flight import geo_flight
+from coverplan.errors import InputFileError
+from coverplan.files import write_atomic
+from coverplan.flight.missions import GROUND, TAKEOFF, MissionBuilder
+from coverplan.io.geoflight import geo_flight
+from coverplan.io.registry import register_mission_reader, register_writer
 
 MAX_WAYPOINTS = 99
 MAX_ACTIONS = 15
@@ -70,7 +73,6 @@ def write_litchi(route, path, speed: float = 5.0, **_ignored) -> list[Path]:
 # -- reading, for the evaluator ------------------------------------------------------------
 
 def _litchi_rows(path):
-    from ..errors import InputFileError
 
     text = Path(path).read_text(encoding="utf-8-sig")
     rows = list(csv.reader(io.StringIO(text)))
@@ -100,8 +102,6 @@ def read_litchi(path):
     waypoint, which on a flat site is the same; actions rotate the aircraft, tilt the gimbal
     and take photos in order, the waypoint's own heading and gimbal pitch apply otherwise.
     """
-    from ..errors import InputFileError
-    from .missions import GROUND, TAKEOFF, MissionBuilder
 
     path = Path(path)
     parts = _parts(path)

@@ -7,8 +7,8 @@ import warnings
 import numpy as np
 import trimesh
 
-from ..errors import InputFileError
-from . import MeshSource, register_reader
+from coverplan.errors import InputFileError
+from coverplan.io.registry import MeshSource, register_reader
 
 # glTF is y-up by specification; everything else is taken as z-up unless told.
 _DEFAULT_UP = {"glb": "y", "gltf": "y"}

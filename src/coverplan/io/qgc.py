@@ -14,8 +14,11 @@ from pathlib import Path
 
 import numpy as np
 
-from . import read_json, register_mission_reader, register_writer, write_atomic
-from .flight import geo_flight
+from coverplan.errors import InputFileError
+from coverplan.files import read_json, write_atomic
+from coverplan.flight.missions import AMSL, TAKEOFF, MissionBuilder
+from coverplan.io.geoflight import geo_flight
+from coverplan.io.registry import register_mission_reader, register_writer
 
 NAV_WAYPOINT, NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF = 16, 20, 22
 DO_GIMBAL_MANAGER_PITCHYAW, IMAGE_START_CAPTURE = 1000, 2000
@@ -114,8 +117,6 @@ def walk_items(items, home, path, source: str):
     DO_DIGICAM_CONTROL) are taken at the last position with the last heading (the
     waypoint's yaw or CONDITION_YAW) and gimbal pitch (gimbal manager or mount control).
     """
-    from ..errors import InputFileError
-    from .missions import AMSL, TAKEOFF, MissionBuilder
 
     b = MissionBuilder(path, source)
     home_lat, home_lon = home
@@ -158,7 +159,6 @@ def walk_items(items, home, path, source: str):
 @register_mission_reader("plan")
 def read_plan(path):
     """A QGroundControl ``.plan`` mission (simple items only)."""
-    from ..errors import InputFileError
 
     data = read_json(path)
     mission = data.get("mission") if isinstance(data, dict) else None
@@ -183,7 +183,6 @@ def read_plan(path):
 @register_mission_reader("waypoints", "txt")
 def read_wpl(path):
     """A ``QGC WPL 110`` text mission (QGroundControl, Mission Planner); row 0 is home."""
-    from ..errors import InputFileError
 
     lines = [ln for ln in Path(path).read_text(encoding="utf-8").splitlines() if ln.strip()]
     if not lines or not lines[0].startswith("QGC WPL"):

@@ -25,8 +25,13 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
-from . import register_mission_reader, register_writer
-from .flight import geo_flight
+from coverplan.equipment.drones import get_drone
+from coverplan.errors import InputFileError, ParameterError
+from coverplan.files import write_atomic_bytes
+from coverplan.flight.missions import TAKEOFF, MissionBuilder
+from coverplan.geometry.geo import ellipsoidal_and_egm96
+from coverplan.io.geoflight import geo_flight
+from coverplan.io.registry import register_mission_reader, register_writer
 
 KML = "http://www.opengis.net/kml/2.2"
 WPML = "http://www.dji.com/wpmz/1.0.2"
@@ -60,8 +65,6 @@ def signed_heading(deg) -> np.ndarray:
 
 
 def _drone_for(route, drone):
-    from ..drones import get_drone
-    from ..errors import ParameterError
     name = drone or route.params.get("drone")
     if not name:
         raise ParameterError("WPML export needs the drone: plan (or export) with --drone "
@@ -75,12 +78,10 @@ def _drone_for(route, drone):
 
 def _heights(route, f, heights: str):
     """(template height, template ellipsoid height, executed height, template mode, executed mode)."""
-    from ..errors import ParameterError
     if heights == "relative":
         rel = f.alt_rel  # above the take-off point; the ellipsoid height field repeats it (no datum used)
         return rel, rel, rel, "relativeToStartPoint", "relativeToStartPoint"
     if heights == "egm96":
-        from ..geo import ellipsoidal_and_egm96
         _lon, _lat, h_ell, h_egm = ellipsoidal_and_egm96(route.frame, route.positions)
         return h_egm, h_ell, h_ell, "EGM96", "WGS84"
     raise ParameterError(f"WPML heights must be one of {', '.join(HEIGHT_MODES)}, got {heights!r}")
@@ -215,7 +216,6 @@ def _document(route, f, profile, heights, modes, speed: float, executed: bool) -
 
 def wpml_files(route, drone=None, speed: float | None = None, heights: str = "relative") -> dict[str, bytes]:
     """The two XML files of the mission, by their path inside the .kmz."""
-    from ..errors import ParameterError
     profile = _drone_for(route, drone)
     speed = float(speed if speed is not None else profile.cruise_speed)
     if not 0 < speed <= min(profile.max_speed, 15.0):
@@ -230,7 +230,6 @@ def wpml_files(route, drone=None, speed: float | None = None, heights: str = "re
 @register_writer("wpml", ".kmz")
 def write_wpml(route, path, drone=None, speed: float | None = None, wpml_heights: str = "relative",
                **_ignored) -> list[Path]:
-    from . import write_atomic_bytes
     files = wpml_files(route, drone, speed, wpml_heights)
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w", compression=zipfile.ZIP_DEFLATED) as kmz:
@@ -246,8 +245,6 @@ def read_wpml(path):
     """A DJI WPML .kmz as a Mission: the executable waylines.wpml's first wayline, heights
     relative to the take-off point; photos where a takePhoto action is, with the heading of
     the group's rotateYaw (else the waypoint's heading angle) and the gimbalRotate pitch."""
-    from ..errors import InputFileError
-    from .missions import TAKEOFF, MissionBuilder
     try:
         with zipfile.ZipFile(path) as kmz:
             data = kmz.read("wpmz/waylines.wpml")

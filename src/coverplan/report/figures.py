@@ -11,7 +11,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import LineCollection, PolyCollection  # noqa: E402
 
-from .frame import focus_bounds  # noqa: E402
+from coverplan.evaluation import evaluate
+from coverplan.report.frame import focus_bounds  # noqa: E402
 
 LEG_COLOURS = {"initial": "#2b6cb0", "coverage": "#dd6b20", "final": "#805ad5"}
 ROLE_COLOURS = {"target": "#a0aec0", "obstacle": "#c53030"}
@@ -167,7 +168,6 @@ def write_figures(route, scene, prefix, evaluation=None, simulation=None) -> lis
     """Write ``PREFIX_overview.png``, ``PREFIX_slices.png`` and ``PREFIX_coverage.png``, and
     with a simulation ``PREFIX_reconstruction.png``."""
     if evaluation is None:
-        from ..evaluate import evaluate
         evaluation = evaluate(route, scene)
     prefix = str(prefix)
     out = [overview(route, scene, f"{prefix}_overview.png"), slices(route, scene, f"{prefix}_slices.png"),

@@ -14,6 +14,11 @@ from pathlib import Path
 
 import numpy as np
 
+from coverplan.equipment.flighttime import FlightModel
+from coverplan.evaluation import evaluate
+from coverplan.flight.battery import flight_table
+from coverplan.report.frame import focus_bounds
+
 MAX_DISPLAY_FACES = 300_000
 MAX_TERRAIN_CELLS = 40_000
 LEG_CODES = {"initial": 0, "coverage": 1, "final": 2}
@@ -53,7 +58,6 @@ def report_data(route, scene, evaluation, simulation=None) -> dict:
     gsd = np.where(np.isfinite(best), route.camera.gsd_at(best), -1.0)
     status = np.where(evaluation.covered | ~evaluation.reachable, 0, 1)
     status = np.where(evaluation.reachable, status, 2).astype(np.uint8)
-    from .frame import focus_bounds
     lo, hi = focus_bounds(route, scene)  # the initial view: the target and its flight, not the tile
     meshes = []
     for part in scene.parts:
@@ -139,8 +143,6 @@ def road_map_rows(route) -> str:
 
 def flights_section(route) -> str:
     """Each battery flight: time by the flight-time model, photos, path, share of the limit."""
-    from ..flights import flight_table
-    from ..flighttime import FlightModel
     model = FlightModel(**(route.metrics or {}).get("flight_model", {}))
     limit = route.params.get("max_flight_min")
     rows = []
@@ -278,7 +280,6 @@ def write_html_report(route, scene, path, evaluation=None, title: str | None = N
     """Write the report for ``route`` in ``scene`` (evaluating it unless given); with a
     ``simulation`` it also shows what SfM recovered and which photos it lost."""
     if evaluation is None:
-        from ..evaluate import evaluate
         evaluation = evaluate(route, scene)
     path = Path(path)
     path.write_text(render_html(route, scene, evaluation, title or f"coverplan flight report: {path.stem}",

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import ParameterError
+from coverplan.errors import ParameterError
 
 INSTALL_HINT = "simulate needs pycolmap; install it with: pip install 'coverplan[sfm]'"
 

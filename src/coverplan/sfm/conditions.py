@@ -17,10 +17,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..drones import SURVEY_SHUTTER_S, DroneProfile, PoseError, drone_of_route
-from ..errors import ParameterError
-from ..flighttime import FlightModel
-from .render import _SUN as FIXED_SUN
+from coverplan.equipment.drones import (
+    SURVEY_SHUTTER_S,
+    DroneProfile,
+    PoseError,
+    drone_of_route,
+)
+from coverplan.equipment.flighttime import FlightModel
+from coverplan.errors import ParameterError
+from coverplan.sfm.render import _SUN as FIXED_SUN
 
 BIAS_CORRELATION_S = 300.0  # the flight-wide error's drift: correlated over about 5 minutes
 BATTERY_SWAP_S = 300.0  # between two battery flights

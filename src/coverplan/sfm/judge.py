@@ -10,7 +10,13 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ..surface import FACADE, OPPOSED_TERRACE, ROOF, TERRACE, sample_surface
+from coverplan.shots.surface import (
+    FACADE,
+    OPPOSED_TERRACE,
+    ROOF,
+    TERRACE,
+    sample_surface,
+)
 
 JUDGE_SEED = 7919
 MAX_JUDGE_SAMPLES = 300_000

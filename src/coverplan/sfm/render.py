@@ -23,8 +23,9 @@ import numpy as np
 import trimesh
 from scipy import ndimage
 
-from ..orientation import camera_axes
-from ..raycast import RayCaster
+from coverplan.errors import ParameterError
+from coverplan.geometry.orientation import camera_axes
+from coverplan.geometry.raycast import RayCaster
 
 _SUN = np.array([0.35, -0.45, 0.82]) / np.linalg.norm([0.35, -0.45, 0.82])
 _SKY = 0.78  # sky brightness (no texture: nothing to match there)
@@ -183,7 +184,6 @@ TEXTURE_FAMILIES = ("noise", "cells")
 def check_texture(family: str) -> str:
     """``family`` if it names a texture family, else a one-line ParameterError."""
     if family not in TEXTURE_FAMILIES:
-        from ..errors import ParameterError
         raise ParameterError(f"unknown texture family {family!r}; choose one of {', '.join(TEXTURE_FAMILIES)}")
     return family
 

@@ -15,7 +15,7 @@ import scipy.sparse as sp
 from scipy import ndimage
 from scipy.sparse.csgraph import dijkstra
 
-from .grid import FREE, TARGET
+from coverplan.voxel.grid import FREE, TARGET
 
 
 def cost_grid(cells: np.ndarray, d_opt: float, d_sec: float) -> np.ndarray:

@@ -16,12 +16,20 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage
 
-from ..route import Route, coverage_length, polyline_length
-from .grid import FREE, OBSTACLE, TARGET, SceneGrid, grid_from_scene
-from .path import cell_path, cost_grid, grid_graph
-from .view import view_plan
+from coverplan.equipment.camera import Camera
+from coverplan.flight.route import Route, coverage_length, polyline_length
+from coverplan.voxel.grid import FREE, OBSTACLE, TARGET, SceneGrid, grid_from_scene
+from coverplan.voxel.path import cell_path, cost_grid, grid_graph
+from coverplan.voxel.view import view_plan
 
 PITCH_DEG = 45.0  # fixed pitch of rooftop / terrace (down) and opposed-terrace (up) shots
+
+
+def thesis_camera() -> Camera:
+    """80 deg horizontal FOV with the thesis's 10 m vertical coverage at d_opt = 7 m."""
+    focal = 18.0 / np.tan(np.radians(40.0))
+    height = 2 * focal * np.tan(np.arctan(5.0 / 7.0))
+    return Camera(36.0, height, focal, 6000, int(round(6000 * height / 36.0)), "thesis80x71")
 
 
 @dataclass
@@ -37,7 +45,7 @@ class Flight:
     seconds: float = 0.0
 
     @property
-    def shots(self) -> int:
+    def n_shots(self) -> int:
         return int(sum(self.shot))
 
     @property
@@ -256,7 +264,7 @@ def plan_2d(grid: SceneGrid, camera, gsd: float, security: float, start, z: floa
 
 def _route(flights: list[Flight], camera, gsd, security, scene) -> Route | None:
     """One route file: the successful flights one after the other, each from the start and back."""
-    good = [f for f in flights if not f.failure and f.shots]
+    good = [f for f in flights if not f.failure and f.n_shots]
     if not good:
         return None
     pos = np.vstack([np.array(f.positions) for f in good])

@@ -16,7 +16,7 @@ import numpy as np
 from scipy import ndimage
 from scipy.spatial import cKDTree
 
-from .grid import FREE, TARGET
+from coverplan.voxel.grid import FREE, TARGET
 
 BAR_RADIUS = 1  # cells around a first-loop viewpoint barred in the second loop
 

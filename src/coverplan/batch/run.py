@@ -1,0 +1,451 @@
+"""``coverplan batch``: one route per building of a city file, planned on dask.distributed.
+
+The city file is parsed once, here; each task receives only its building's neighbourhood (the
+target's triangles and those of the city objects within the context radius), plans it on a
+worker exactly as ``coverplan plan --building`` would, evaluates it, and sends back the bytes of
+its outputs. This process writes each building's folder atomically (a temporary folder renamed
+into place, ``result.json`` last), so an interrupted batch leaves whole folders or none, and a
+re-run skips every building whose folder is complete and was made with the same settings and
+geometry. A building that fails (bad geometry, nothing reachable, a worker killed) becomes a
+row with its error; the others go on.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import re
+import shutil
+import tempfile
+import time
+from dataclasses import asdict, dataclass, field, is_dataclass
+from pathlib import Path
+from typing import Callable
+
+from coverplan import __version__
+from coverplan.batch.summary import write_summary
+from coverplan.equipment.camera import Camera
+from coverplan.errors import CoverplanError, InputFileError, ParameterError
+from coverplan.io import GEOGRAPHIC_FORMATS, read_city_model
+from coverplan.io.city import CityModel, CityObject, Neighbourhood
+from coverplan.io.load import load_scene
+from coverplan.job import run_job
+from coverplan.world.merge import merge_into_target
+
+RESULT = "result.json"  # written last into a building's folder: its presence means complete
+ALLOWED_FAILURES = 1  # a task that kills two workers is not retried a third time
+
+
+@dataclass
+class BatchSettings:
+    """What every building of the batch is planned with (the flags ``plan`` takes)."""
+
+    camera: Camera
+    plan_options: dict  # planner.plan's keyword arguments
+    exports: list[str] = field(default_factory=list)
+    export_options: dict = field(default_factory=dict)  # firmware, speed, drone, wpml_heights
+    report: bool = True
+    merge_obstacles_within: float | None = None
+    context_radius: float | None = None
+    lod: int | None = None
+    terrain: str | None = None  # a DTM raster every worker reads its building's window of
+
+    def __post_init__(self):
+        if self.terrain is not None:
+            path = Path(self.terrain).expanduser()
+            if not path.is_file():
+                raise ParameterError(f"{self.terrain}: no such DTM file")
+            self.terrain = str(path.resolve())  # workers may start in another folder
+
+    def fingerprint(self) -> str:
+        """Changes with any setting that changes a building's outputs."""
+        def plain(value):
+            if is_dataclass(value):
+                return asdict(value)
+            if isinstance(value, Camera):
+                return value.to_dict()
+            return value
+        data = {k: plain(v) for k, v in asdict(self).items() if k != "camera"}
+        data["plan_options"] = {k: plain(v) for k, v in self.plan_options.items()}
+        data["camera"] = self.camera.to_dict()
+        data["coverplan"] = __version__
+        if self.terrain is not None:  # a DTM replaced under the same name plans again
+            stat = Path(self.terrain).stat()
+            data["terrain_file"] = [stat.st_size, stat.st_mtime_ns]
+        return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+@dataclass
+class BuildingJob:
+    """One task: a building's neighbourhood and the settings to plan it with."""
+
+    id: str
+    folder: str
+    neighbourhood: Neighbourhood
+    settings: BatchSettings
+    key: str  # settings fingerprint + geometry digest; a complete folder with this key is skipped
+
+
+# -- choosing buildings -----------------------------------------------------------------------
+
+def parse_where(items: list[str] | None) -> list[tuple[str, str]]:
+    """ATTR=VALUE pairs (a ParameterError for anything else)."""
+    pairs = []
+    for item in items or []:
+        attr, sep, value = item.partition("=")
+        if not sep or not attr.strip():
+            raise ParameterError(f"--where takes ATTR=VALUE, got {item!r}")
+        pairs.append((attr.strip(), value.strip()))
+    return pairs
+
+
+def _matches(value, wanted: str) -> bool:
+    if isinstance(value, list):
+        return any(_matches(v, wanted) for v in value)
+    if str(value) == wanted:
+        return True
+    try:
+        return float(value) == float(wanted)
+    except (TypeError, ValueError):
+        return False
+
+
+def select_buildings(model: CityModel, ids: list[str] | None = None, everything: bool = False,
+                     bbox: list[float] | None = None, where: list[tuple[str, str]] | None = None) -> list[CityObject]:
+    """The buildings a batch plans: by id, all, those centred in ``bbox`` (file coordinates,
+    xmin ymin xmax ymax) and/or whose attributes equal every ``where`` value."""
+    buildings = model.buildings
+    if not buildings:
+        raise InputFileError(model.path, "holds no building with 3D geometry (LoD 1 or higher)")
+    if ids:
+        chosen, seen = [], set()
+        for building in ids:
+            obj = model.find(building)
+            if obj.id not in seen:
+                seen.add(obj.id)
+                chosen.append(obj)
+        return chosen
+    if not (everything or bbox or where):
+        raise ParameterError("choose the buildings: --buildings ID ..., --all, --bbox XMIN YMIN XMAX YMAX "
+                             "or --where ATTR=VALUE")
+    chosen = buildings
+    if bbox is not None:
+        xmin, ymin, xmax, ymax = (float(v) for v in bbox)
+        if not (xmin < xmax and ymin < ymax):
+            raise ParameterError(f"--bbox needs XMIN < XMAX and YMIN < YMAX, got {' '.join(f'{v:g}' for v in bbox)}")
+        centre = {id(o): (box[:2] + box[2:]) / 2 for o, box in zip(model.with_geometry, model.xy_bounds(None))}
+        chosen = [o for o in chosen if xmin <= centre[id(o)][0] <= xmax and ymin <= centre[id(o)][1] <= ymax]
+    for attr, value in where or []:
+        chosen = [o for o in chosen if attr in o.attributes and _matches(o.attributes[attr], value)]
+    if not chosen:
+        what = " and ".join(filter(None, [bbox is not None and "--bbox", where and "--where"]))
+        known = sorted({k for o in buildings for k in o.attributes})
+        raise ParameterError(f"no building of {model.path.name} matches {what}"
+                             + (f" (attributes: {', '.join(known[:12])})" if where else ""))
+    return chosen
+
+
+def folder_names(objects: list[CityObject]) -> list[str]:
+    """A file-system-safe, unique folder name per building id."""
+    names, used = [], set()
+    for obj in objects:
+        base = re.sub(r"[^A-Za-z0-9._-]+", "_", obj.id).strip("._") or "building"
+        name, k = base[:120], 2
+        while name.lower() in used:
+            name, k = f"{base[:116]}-{k}", k + 1
+        used.add(name.lower())
+        names.append(name)
+    return names
+
+
+# -- one building, on a worker ----------------------------------------------------------------
+
+def plan_building(job: BuildingJob) -> dict:
+    """Plan, evaluate and render one building; returns its summary row and output files.
+
+    Runs on a Dask worker. Errors become a 'failed' row rather than a raised exception, so the
+    row carries the message a user can act on.
+    """
+    started = time.perf_counter()
+    row = {"id": job.id, "folder": job.folder, "key": job.key}
+    try:
+        row_update, files = _plan_and_render(job)
+        row.update(row_update)
+    except CoverplanError as exc:
+        row.update(status="failed", error=str(exc))
+        files = {}
+    except MemoryError:
+        row.update(status="failed", error="out of memory")
+        files = {}
+    except Exception as exc:  # a bug or a geometry the libraries choke on: keep the batch going
+        row.update(status="failed", error=f"{type(exc).__name__}: {exc}")
+        files = {}
+    row["planning_time_s"] = round(time.perf_counter() - started, 3)
+    return {"row": row, "files": files}
+
+
+def _plan_and_render(job: BuildingJob) -> tuple[dict, dict]:
+    s = job.settings
+    scene = load_scene(job.neighbourhood.source(), terrain=s.terrain)
+    if s.merge_obstacles_within is not None:
+        scene = merge_into_target(scene, s.merge_obstacles_within)
+    options = dict(s.plan_options)
+    if options.get("max_memory") is None:
+        options["max_memory"] = _worker_memory_budget()
+    with tempfile.TemporaryDirectory(prefix="coverplan-batch-") as tmp:
+        tmp = Path(tmp)
+        done = run_job(scene, s.camera, tmp / "route.json", formats=s.exports, export_options=s.export_options,
+                       report=tmp / "report.html" if s.report else None, title=f"coverplan: {job.id}", **options)
+        files = {path.name: path.read_bytes() for path in sorted(tmp.iterdir())}
+    route, ev = done.route, done.evaluation
+    m = ev.metrics
+    status = "planned" if ev.safe else "unsafe"
+    reasons: dict[str, float] = {}
+    for group in m["unreachable"]:
+        reasons[group["reason"]] = reasons.get(group["reason"], 0.0) + group["area_m2"]
+    if m["uncovered_reachable_area_m2"] > 0:
+        reasons["reachable but not covered"] = m["uncovered_reachable_area_m2"]
+    main_reason = max(reasons, key=reasons.get) if reasons else ""
+    row = {"status": status, "error": "" if ev.safe else f"evaluator: {m['unsafe_segment_count']} unsafe segments",
+           "shots": int(route.shot.sum()), "path_length_m": round(route.path_length, 2),
+           "flight_time_min": round(sum(f["minutes"] for f in route.metrics["flights"]), 2),
+           "flights": route.n_flights,
+           "coverage_pct": round(m["coverage_pct"], 3),
+           "planned_coverage_pct": round(route.metrics["planned_coverage_pct"], 3),
+           "uncovered_area_m2": round(m["unreachable_area_m2"] + m["uncovered_reachable_area_m2"], 2),
+           "main_uncovered_reason": main_reason, "min_clearance_m": round(m["min_clearance_m"], 3),
+           "security_m": route.security, "obstacles": len(scene.obstacles)}
+    return row, files
+
+
+def _worker_memory_budget() -> float | None:
+    """80 % of this Dask worker's memory limit (the planner refuses plans that need more)."""
+    try:
+        from distributed import get_worker
+        limit = get_worker().memory_manager.memory_limit
+    except (ImportError, ValueError, AttributeError):
+        return None
+    return 0.8 * limit if limit else None
+
+
+# -- outputs ----------------------------------------------------------------------------------
+
+def write_building(out_dir: Path, row: dict, files: dict[str, bytes]) -> Path:
+    """Put a building's files in OUT/buildings/FOLDER atomically: a temporary folder with
+    ``result.json`` written last, renamed into place."""
+    parent = out_dir / "buildings"
+    parent.mkdir(parents=True, exist_ok=True)
+    final = parent / row["folder"]
+    tmp = Path(tempfile.mkdtemp(prefix=f".{row['folder']}.", suffix=".tmp", dir=parent))
+    try:
+        sizes = {}
+        for name, data in files.items():
+            with open(tmp / name, "wb") as handle:
+                handle.write(data)
+                handle.flush()
+                os.fsync(handle.fileno())
+            sizes[name] = len(data)
+        record = dict(row, files=sizes)
+        with open(tmp / RESULT, "w", encoding="utf-8") as handle:
+            json.dump(record, handle, indent=1, default=float)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.chmod(tmp, 0o755)
+        if final.exists():  # an older or failed attempt: replaced whole, never mixed with the new one
+            old = final.with_name(f".{final.name}.{os.getpid()}.old")
+            os.replace(final, old)
+            os.replace(tmp, final)
+            shutil.rmtree(old, ignore_errors=True)
+        else:
+            os.replace(tmp, final)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return final
+
+
+def completed_row(out_dir: Path, folder: str, key: str) -> dict | None:
+    """The recorded row of a building whose folder is complete and valid for ``key``, else None."""
+    record_path = out_dir / "buildings" / folder / RESULT
+    try:
+        record = json.loads(record_path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if not isinstance(record, dict) or record.get("status") != "planned" or record.get("key") != key:
+        return None
+    files = record.get("files")
+    if not isinstance(files, dict) or "route.json" not in files:
+        return None
+    for name, size in files.items():
+        path = record_path.parent / name
+        if not path.is_file() or path.stat().st_size != size:
+            return None
+    try:
+        json.loads((record_path.parent / "route.json").read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    record.pop("files")
+    return record
+
+
+# -- the batch --------------------------------------------------------------------------------
+
+@dataclass
+class BatchResult:
+    rows: list[dict]  # one per selected building, in selection order
+    out_dir: Path
+    planned_now: int
+    skipped: int
+    seconds: float
+    written: list[Path] = field(default_factory=list)
+
+    @property
+    def failed(self) -> list[dict]:
+        return [r for r in self.rows if r.get("status") != "planned"]
+
+
+def run_batch(city: str | Path | CityModel, out_dir: str | Path, settings: BatchSettings, *,
+              buildings: list[str] | None = None, everything: bool = False, bbox: list[float] | None = None,
+              where: list[tuple[str, str]] | None = None, workers: int | None = None,
+              scheduler: str | None = None, progress=None, log_lines: bool = False,
+              task: Callable[[BuildingJob], dict] = plan_building) -> BatchResult:
+    """Plan every chosen building of ``city`` on Dask and write OUT_DIR (see the module doc).
+
+    ``workers``: size of the local cluster (default: one per core); ``scheduler``: the address
+    of a running Dask scheduler to use instead. ``progress`` (a progress.Progress) draws the
+    bar; ``log_lines`` prints a line per building instead. ``task`` is what each worker runs
+    (for custom pipelines and fault tests).
+    """
+
+    started = time.perf_counter()
+    model = city if isinstance(city, CityModel) else read_city_model(city)
+    chosen = select_buildings(model, buildings, everything, bbox, where)
+    if set(settings.exports) & GEOGRAPHIC_FORMATS and not model.crs[0]:
+        raise ParameterError(f"{', '.join(sorted(set(settings.exports) & GEOGRAPHIC_FORMATS))} export needs a "
+                             f"georeference and {model.path.name} names no CRS")
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise ParameterError(f"{out_dir} exists and is not a folder")
+    if not out_dir.parent.exists():
+        raise ParameterError(f"{out_dir.parent} does not exist (the parent of the output folder)")
+    out_dir.mkdir(exist_ok=True)
+    folders = folder_names(chosen)
+    fingerprint = settings.fingerprint()
+    rows: dict[str, dict] = {}
+    pending: list[tuple[CityObject, str, str]] = []
+    for obj, folder in zip(chosen, folders):
+        key = f"{fingerprint}-{model.neighbourhood(obj.id, settings.context_radius, settings.lod).digest()}"
+        done = completed_row(out_dir, folder, key)
+        if done is not None:
+            rows[obj.id] = dict(done, resumed=True)
+        else:
+            pending.append((obj, folder, key))
+    skipped = len(rows)
+
+    def job(obj: CityObject, folder: str, key: str) -> BuildingJob:
+        # made again when submitted, not kept from above: the client holds few neighbourhoods at once
+        return BuildingJob(obj.id, folder, model.neighbourhood(obj.id, settings.context_radius, settings.lod),
+                           settings, key)
+
+    counter = _Counter(len(pending), progress, log_lines)
+    try:
+        if pending:
+            for row, files in _run_on_dask(pending, job, task, workers, scheduler):
+                write_building(out_dir, row, files)
+                rows[row["id"]] = row
+                counter.update(row)
+    finally:
+        counter.close()
+        ordered = [rows.get(o.id) or {"id": o.id, "folder": f, "status": "not run", "error": "the batch stopped before planning it"}
+                   for o, f in zip(chosen, folders)]
+        written = write_summary(model, chosen, ordered, out_dir, settings)
+    return BatchResult(ordered, out_dir, len(pending), skipped, time.perf_counter() - started, written)
+
+
+class _Counter:
+    """Buildings done / failed / remaining: a bar on a terminal, a line per building otherwise."""
+
+    def __init__(self, total: int, progress, lines: bool):
+        import sys
+        self.total, self.done, self.failed = total, 0, 0
+        self.bar = None
+        if progress is not None and progress.bars and total:
+            from tqdm import tqdm
+            self.bar = tqdm(total=total, desc="buildings", unit="bldg", file=progress.stream, dynamic_ncols=True)
+        self.lines = lines and self.bar is None
+        self.stream = progress.stream if progress is not None else sys.stderr
+
+    def update(self, row: dict) -> None:
+        ok = row.get("status") == "planned"
+        self.done += ok
+        self.failed += not ok
+        if self.bar is not None:
+            self.bar.set_postfix(done=self.done, failed=self.failed, remaining=self.total - self.done - self.failed)
+            self.bar.update(1)
+        elif self.lines:
+            what = (f"{row['shots']} shots, {row['coverage_pct']:.2f} %" if ok
+                    else f"{row.get('status')}: {row.get('error', '')}")
+            print(f"[{self.done + self.failed}/{self.total}] {row['id']}: {what}", file=self.stream, flush=True)
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
+
+
+def _run_on_dask(pending, make_job, task, workers, scheduler):
+    """Yield (row, files) per building as tasks finish; at most a few tasks per worker are in
+    flight, so the client never holds every building's geometry at once."""
+    try:
+        import dask
+        from distributed import Client, LocalCluster, as_completed
+    except ImportError:
+        raise ParameterError("coverplan batch needs Dask: pip install 'coverplan[batch]'") from None
+    with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES}):
+        if scheduler:
+            try:
+                client = Client(scheduler, timeout="20s")
+            except (OSError, TimeoutError) as exc:
+                raise ParameterError(f"cannot reach the Dask scheduler at {scheduler} ({exc})") from None
+            cluster = None
+        else:
+            n = workers or os.cpu_count() or 1
+            cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                   dashboard_address=None, silence_logs=logging.ERROR)
+            client = Client(cluster)
+        try:
+            slots = 3 * (len(client.scheduler_info().get("workers", {})) or workers or 1)
+            queue = list(pending)
+            futures = {}
+
+            def submit():
+                obj, folder, key = queue.pop(0)
+                future = client.submit(task, make_job(obj, folder, key), pure=False,
+                                       key=f"coverplan-{folder}-{time.time_ns()}")
+                futures[future.key] = (obj, folder)
+                return future
+
+            running = as_completed([submit() for _ in range(min(slots, len(queue)))])
+            for future in running:
+                obj, folder = futures.pop(future.key)
+                if future.status == "finished":
+                    result = future.result()
+                    yield result["row"], result["files"]
+                else:
+                    exc = future.exception()
+                    yield {"id": obj.id, "folder": folder, "status": "failed", "error": _task_error(exc)}, {}
+                future.release()
+                if queue:
+                    running.add(submit())
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+
+
+def _task_error(exc) -> str:
+    name = type(exc).__name__
+    if name == "KilledWorker":
+        return "the worker planning it died (killed, or out of memory)"
+    return f"{name}: {exc}"

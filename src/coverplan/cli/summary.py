@@ -1,0 +1,73 @@
+"""The plan summary ``coverplan plan`` prints: shots, path, flights, coverage, notes."""
+
+from __future__ import annotations
+
+
+def plan_summary(route) -> str:
+    m = route.metrics
+    rows = [
+        ("shots", f"{m['shots']}" + (f"  (LP lower bound {m['lp_lower_bound_shots']:.1f})"
+                                      if m.get("lp_lower_bound_shots") else "")),
+        ("path length", f"{route.path_length:,.1f} m  (one orbit at the standoff: {m['orbit_length_m']:,.1f} m)"),
+        *_flight_rows(route),
+        ("coverage (planned)", f"{m['planned_coverage_pct']:.2f} % of the reachable surface"
+                               + (f", checked every {m['check_spacing_m']:.2f} m" if m.get("check_spacing_m") else "")),
+        ("uncovered samples", f"{len(route.uncovered)}"),
+        ("d_opt / standoff", f"{m['d_opt_m']:.2f} m / {m['standoff_m']:.2f} m"),
+        ("ground", f"terrain {route.params['terrain']}; minimum altitude "
+                   f"{route.params.get('min_altitude_m', route.security):g} m above it along every segment"
+                   if route.params.get("terrain") else
+                   f"flat at z {route.takeoff_z:.2f} (no terrain given: --terrain DTM.tif)"),
+        ("planning time", f"{m['planning_time_s']:.2f} s"),
+    ]
+    ev = m.get("evaluation")
+    if ev:
+        at = next(k for k, r in enumerate(rows) if r[0] == "uncovered samples")
+        rows.insert(at, ("coverage (evaluated)", f"{ev['coverage_pct']:.2f} % on fresh samples every "
+                                                 f"{ev['sample_spacing_m']:.2f} m, p-outliers {ev['p_outliers']}"))
+        rows.insert(at + 1, ("min clearance", f"{ev['min_clearance_m']:.2f} m (security {route.security:g} m)"
+                                              + ("" if ev["safe"] else "  UNSAFE")))
+    reasons: dict[str, float] = {}
+    for u in route.uncovered:
+        reasons[u["reason"]] = reasons.get(u["reason"], 0.0) + u.get("area_m2", 0.0)
+    for reason, area in sorted(reasons.items(), key=lambda kv: -kv[1])[:5]:
+        rows.append(("  not covered", f"{area:.1f} m2: {reason}"))
+    for note in summarize_notes(route.extra.get("notes", [])):
+        rows.append(("  note", note))
+    width = max(len(r[0]) for r in rows)
+    return "\n".join(f"{a.ljust(width)}  {b}" for a, b in rows)
+
+
+def _flight_rows(route) -> list[tuple[str, str]]:
+    """Flight time by the model (docs/flights.md), per battery flight when there are several."""
+    m = route.metrics
+    flights = m.get("flights") or []
+    model = m.get("flight_model") or {}
+    total = sum(f["minutes"] for f in flights)
+    drone = route.params.get("drone")
+    how = (f"{model.get('cruise_speed', 0):g} m/s, stops at every waypoint"
+           + (f", {drone}" if drone else ""))
+    limit = route.params.get("max_flight_min")
+    rows = [("flight time", f"{total:.1f} min by the flight-time model ({how})"
+             + (f"; limit {limit:g} min per flight" if limit else ""))]
+    if len(flights) > 1:
+        extra = route.path_length / m["single_flight_path_m"] if m.get("single_flight_path_m") else float("nan")
+        rows.append(("flights", f"{len(flights)}, each from the start point back to it; path {extra:.2f}x one "
+                                "single flight's"))
+        for f in flights:
+            rows.append((f"  flight {f['flight']}", f"{f['minutes']:.1f} min, {f['shots']} shots, "
+                                                   f"{f['path_m']:,.0f} m, {f['limit_share_pct']:.0f} % of the limit"))
+    return rows
+
+
+def summarize_notes(notes: list[str], limit: int = 10) -> list[str]:
+    """Notes that repeat with another mesh's name or another count are told once, with a tally."""
+    import re
+    groups: dict[str, list[str]] = {}
+    for note in notes:
+        key = re.sub(r"\d+", "N", note.split(": ", 1)[-1]) if ": " in note else note
+        groups.setdefault(key, []).append(note)
+    out = []
+    for key, items in groups.items():
+        out.append(items[0] if len(items) == 1 else f"{key.replace('N', 'some')} ({len(items)} meshes)")
+    return out[:limit] + ([f"... and {len(out) - limit} more"] if len(out) > limit else [])

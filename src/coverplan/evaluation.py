@@ -1,0 +1,371 @@
+"""The measuring instrument: does this route cover this building, safely?
+
+Everything here is recomputed from the route file and the scene (its own surface samples,
+ray casts and FCL distance queries); nothing is read from the planner's bookkeeping.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from coverplan.errors import ParameterError
+from coverplan.flight.route import Route
+from coverplan.shots.reachability import ViewLimits, reachability, scene_limits
+from coverplan.shots.reconstructability import (
+    SHARP_INCIDENCE_DEG,
+    MatchRule,
+    best_incidence,
+    graph_summary,
+    incidence_deg,
+    shot_links,
+)
+from coverplan.shots.surface import (
+    CLASS_NAMES,
+    SurfaceSamples,
+    check_spacing,
+    sample_surface,
+)
+from coverplan.shots.visibility import imaging_pairs, pair_stats, view_rays
+
+ORIENTATION_TOLERANCE_DEG = 0.5
+ALTITUDE_TOLERANCE_M = 1e-3  # route files keep 0.1 mm; a floor that follows terrain is rarely a round number
+
+
+RULES = ("strict", "thesis")
+
+
+def view_limits(route: Route, scene, rule: str = "strict") -> ViewLimits:
+    """The viewpoint rules a route declares in its params, in the scene's frame. Under the
+    thesis's rule a point only has to face the camera (incidence < 90 deg)."""
+    ground = route.params.get("ground_z_m", scene.ground_z)
+    min_alt = route.params.get("min_altitude_m", route.security)
+    lo, hi = route.params.get("gimbal_pitch_range_deg", (-90.0, 90.0))
+    incidence = float(route.param("max_incidence_deg")) if rule == "strict" else 89.9
+    if scene.terrain is not None:
+        return scene_limits(scene, security=route.security, d_opt=route.d_opt, max_incidence_deg=incidence,
+                            min_altitude=float(min_alt), pitch_range_deg=(lo, hi), vfov_deg=route.camera.vfov_deg)
+    return ViewLimits(security=route.security, d_opt=route.d_opt,
+                      max_incidence_deg=incidence,
+                      min_z=float(ground) + float(min_alt), pitch_range_deg=(float(lo), float(hi)),
+                      vfov_deg=route.camera.vfov_deg, ground_z=float(ground))
+
+
+@dataclass
+class Evaluation:
+    """Per-sample results and the metrics of DESIGN.md for one route."""
+
+    route: Route
+    samples: SurfaceSamples
+    views: np.ndarray
+    widest_deg: np.ndarray
+    covered: np.ndarray
+    reachable: np.ndarray
+    reasons: list
+    pairs: tuple
+    segment_clearance: np.ndarray
+    segment_mesh: np.ndarray
+    waypoint_inside: np.ndarray
+    metrics: dict = field(default_factory=dict)
+
+    @property
+    def safe(self) -> bool:
+        return bool(self.metrics["safe"])
+
+    @property
+    def coverage_pct(self) -> float:
+        return float(self.metrics["coverage_pct"])
+
+    def table(self) -> str:
+        return format_metrics(self.metrics)
+
+
+EVALUATOR_SEED = 7_368_787  # not the planner's: the check uses points the planner never saw
+
+
+def evaluate(route: Route, scene, spacing: float | None = None, samples: SurfaceSamples | None = None,
+             progress=None, rule: str = "strict", classes=None, seed: int = EVALUATOR_SEED) -> Evaluation:
+    """Judge a route against a scene, on samples of its own, drawn with a seed the planner
+    does not use.
+
+    Parameters
+    ----------
+    route : Route
+    scene : Scene
+        The scene the route is flown in (its terrain too when the route was planned over one).
+    spacing : float, optional
+        Sample spacing in metres; None: every 0.25 m (``surface.check_spacing``).
+    samples : SurfaceSamples, optional
+        Judge on these samples instead of drawing new ones.
+    progress : Progress, optional
+    rule : {"strict", "thesis"}
+        "strict" is DESIGN.md's imaging rule; "thesis" the thesis's: in the frustum, in sight
+        and facing the camera, at any range (GSD not checked).
+    classes : sequence of str, optional
+        Judge only these of facade / roof / terrace / opposed_terrace; None: the classes the
+        route was planned for (all when it does not say).
+    seed : int
+
+    Returns
+    -------
+    Evaluation
+        ``covered`` / ``reachable`` : (n,) bool per sample, ``metrics`` (coverage, clearance,
+        links, per class), ``safe``.
+    """
+    if rule not in RULES:
+        raise ValueError(f"rule must be one of {RULES}")
+    if route.params.get("terrain") and scene.terrain is None:
+        raise ParameterError(f"the route was planned over the terrain {route.params['terrain']}: give it with "
+                             "--terrain, its altitudes are judged against it")
+    limits = view_limits(route, scene, rule)
+    if samples is None:
+        samples = sample_surface(scene, check_spacing(scene, spacing), seed=seed)
+    classes = route.params.get("surface_classes") if classes is None else classes
+    if classes:
+        samples = samples.of_classes(classes)
+    shots = route.shots
+    reach_range = route.d_opt if rule == "strict" else 4.0 * scene.extent + route.d_opt
+    pairs = imaging_pairs(route.positions[shots], route.heading_deg[shots], route.pitch_deg[shots],
+                          route.camera, samples.points, samples.normals, scene.rays,
+                          max_range=reach_range, max_incidence_deg=limits.max_incidence_deg,
+                          offset=scene.epsilon * 4, progress=progress)
+    cam, pt, rng = pairs
+    n = len(samples)
+    views = np.bincount(pt, minlength=n)
+    rays = view_rays(cam, pt, route.positions[shots], samples.points)
+    min_views = int(route.param("min_views"))
+    min_triangulation_deg = float(route.param("min_triangulation_deg"))
+    max_pair_deg = route.params.get("max_pair_deg")
+    widest, paired = pair_stats(pt, rays, n, min_triangulation_deg, max_pair_deg)
+    covered = (views >= min_views) & paired
+
+    # Safety along the whole polyline: exact FCL distances per segment, inside tests per waypoint.
+    positions = route.positions
+    clearance = scene.clearance_model(route.security)
+    inside = scene.rays.inside(positions) >= 0
+    if len(positions) > 1:
+        seg_d, seg_mesh, _exact = clearance.polyline_clearance(positions, route.security)
+    else:
+        seg_d, seg_mesh = clearance.point_distance(positions)
+    seg_d = seg_d.copy()
+    for k in np.flatnonzero(inside):  # a waypoint inside a mesh has no clearance at all
+        seg_d[max(k - 1, 0)] = 0.0
+        seg_d[min(k, len(seg_d) - 1)] = 0.0
+    # A shot the route flies safely proves the samples it images (under DESIGN.md's rule) reachable.
+    last = len(seg_d) - 1
+    near = np.minimum(seg_d[np.clip(shots - 1, 0, last)], seg_d[np.clip(shots, 0, last)])
+    shot_safe = (near >= route.security) & ~inside[shots] & limits.above_floor(positions[shots])
+    witness = shot_safe[cam] & (rng <= route.d_opt) & (rule == "strict")
+    # Probing is the slow part: only samples no safe shot images need it.
+    reach = reachability(scene, samples, limits, known=np.bincount(pt[witness], minlength=n) > 0)
+    ev = Evaluation(route, samples, views, widest, covered, reach.reachable, reach.reason, pairs,
+                    seg_d, seg_mesh, inside)
+    ev.metrics = _metrics(ev, scene, limits)
+    ev.metrics["rule"] = rule
+    ev.metrics["shot_graph"] = shot_graph(route, samples, pairs)
+    return ev
+
+
+def match_rule(route: Route) -> MatchRule:
+    """The rule for linking photos that a route declares (the defaults when it declares none)."""
+    d = MatchRule()
+    return MatchRule(float(route.params.get("max_pair_deg") or d.max_pair_deg),
+                     float(route.params.get("min_overlap") or d.min_overlap),
+                     int(route.params.get("min_neighbours") or d.min_neighbours))
+
+
+def shot_graph(route: Route, samples: SurfaceSamples, pairs) -> dict:
+    """Which photos SfM should match (reconstructability.py), measured on these samples."""
+    import scipy.sparse as sp
+
+    cam, pt, _ = pairs
+    n = len(route.shots)
+    vis = sp.csr_matrix((np.ones(len(cam)), (cam, pt)), shape=(n, len(samples)))
+    rule = match_rule(route)
+    summary = graph_summary(shot_links(vis, route.positions[route.shots], samples.points, rule), rule)
+    summary.update({"max_pair_deg": rule.max_pair_deg, "min_overlap": rule.min_overlap,
+                    "min_neighbours": rule.min_neighbours})
+    return summary
+
+
+def _stats(values) -> dict:
+    values = np.asarray(values, dtype=float)
+    if len(values) == 0:
+        return {"min": None, "max": None, "mean": None}
+    return {"min": float(values.min()), "max": float(values.max()), "mean": float(values.mean())}
+
+
+def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
+    route, samples = ev.route, ev.samples
+    area = samples.area
+    reach = ev.reachable
+    reachable_area = float(area[reach].sum())
+    covered_area = float(area[ev.covered & reach].sum())
+    shots = route.shots
+    shot_pos = route.positions[shots]
+    total_area = samples.total_area
+    security = route.security
+    tol = 1e-6 * max(1.0, security)
+    unsafe = np.flatnonzero(ev.segment_clearance < security - tol)
+    p = route.positions
+    low = np.flatnonzero(~limits.above_floor(p, ALTITUDE_TOLERANCE_M))
+    lowest = lowest_above_ground(p, limits)
+    low_segments = np.flatnonzero(lowest < limits.min_altitude - ALTITUDE_TOLERANCE_M)
+    orient = route.orientation_errors_deg()
+    seg_k = int(np.argmin(ev.segment_clearance)) if len(ev.segment_clearance) else None
+    p_outliers = (ev.views >= 2) & (ev.widest_deg < float(route.param("min_triangulation_deg")))
+
+    unreachable = defaultdict(lambda: {"count": 0, "area_m2": 0.0, "points": []})
+    for k in np.flatnonzero(~reach):
+        g = unreachable[ev.reasons[k]]
+        g["count"] += 1
+        g["area_m2"] += float(area[k])
+        g["points"].append(samples.points[k])
+    unreachable_groups = []
+    for reason, g in sorted(unreachable.items(), key=lambda kv: -kv[1]["area_m2"]):
+        pts = np.array(g["points"])
+        unreachable_groups.append({"reason": reason, "count": g["count"], "area_m2": g["area_m2"],
+                                   "centroid": pts.mean(axis=0).tolist(),
+                                   "bounds": [pts.min(axis=0).tolist(), pts.max(axis=0).tolist()]})
+    missed = reach & ~ev.covered
+    # Sharp views (reconstructability.py): what SfM rebuilds depends on how squarely the
+    # best photo sees the surface, so it is reported beside the view count.
+    cam, pt, _rng = ev.pairs
+    best = best_incidence(pt, incidence_deg(cam, pt, shot_pos, samples.points, samples.normals), len(samples))
+    sharp = ev.covered & reach & (best <= SHARP_INCIDENCE_DEG)
+    by_class, sharp_by_class = {}, {}
+    for k, name in enumerate(CLASS_NAMES):
+        sel = (samples.kind == k) & reach
+        if sel.any():
+            by_class[name] = 100.0 * float(area[sel & ev.covered].sum()) / float(area[sel].sum())
+        if (sel & ev.covered).any():
+            sharp_by_class[name] = 100.0 * float(area[sel & sharp].sum()) / float(area[sel & ev.covered].sum())
+    worst_where = None
+    if seg_k is not None and len(route.positions) > 1:
+        worst_where = scene.clearance_model(route.security).closest_point_on_segment(route.positions[seg_k],
+                                                               route.positions[seg_k + 1])[0].tolist()
+    return {
+        "shots": int(len(shots)),
+        "waypoints": int(len(route)),
+        "path_length_m": route.path_length,
+        "surface_area_m2": total_area,
+        "reachable_area_m2": reachable_area,
+        "covered_area_m2": covered_area,
+        "coverage_pct": 100.0 * covered_area / reachable_area if reachable_area > 0 else 0.0,
+        "coverage_by_class_pct": by_class,
+        "sharp_view_pct": 100.0 * float(area[sharp].sum()) / covered_area if covered_area > 0 else 0.0,
+        "sharp_view_by_class_pct": sharp_by_class,
+        "best_incidence_deg": _stats(best[ev.covered & reach]),
+        "uncovered_reachable_area_m2": float(area[missed].sum()),
+        "uncovered_reachable_samples": int(missed.sum()),
+        "unreachable_area_m2": float(area[~reach].sum()),
+        "unreachable_samples": int((~reach).sum()),
+        "unreachable": unreachable_groups,
+        "left_out_area_m2": dict(samples.left_out),
+        "samples": int(len(samples)),
+        "sample_spacing_m": samples.spacing,
+        "nt_imaged": _stats(ev.views[reach]),
+        "d_image_m": _stats(ev.pairs[2]),
+        "db_viewpoints_m": _stats(np.linalg.norm(np.diff(shot_pos, axis=0), axis=1)),
+        "p_outliers": int(p_outliers.sum()),
+        "shots_per_m2": len(shots) / total_area,
+        "path_m_per_m2": route.path_length / total_area,
+        "min_clearance_m": float(ev.segment_clearance.min()) if len(ev.segment_clearance) else None,
+        "min_clearance_at": worst_where,
+        "min_clearance_mesh": scene.describe(int(ev.segment_mesh[seg_k])) if seg_k is not None and ev.segment_mesh[seg_k] >= 0 else None,
+        "unsafe_segments": [{"segment": int(k), "from": int(k), "to": int(k + 1),
+                             "clearance_m": float(ev.segment_clearance[k]),
+                             "mesh": scene.describe(int(ev.segment_mesh[k])) if ev.segment_mesh[k] >= 0 else None}
+                            for k in unsafe[:50]],
+        "unsafe_segment_count": int(len(unsafe)),
+        "waypoints_inside_meshes": int(ev.waypoint_inside.sum()),
+        "altitude_violations": int(len(low)),
+        "segments_below_min_altitude": [{"segment": int(k), "lowest_above_ground_m": float(lowest[k])}
+                                        for k in low_segments[:50]],
+        "segments_below_min_altitude_count": int(len(low_segments)),
+        "lowest_above_ground_m": float(lowest.min()) if len(lowest) else float(p[0, 2] - limits.ground_at(p[:1, :2])[0]),
+        "min_altitude_m": limits.min_altitude,
+        "min_altitude_z_m": limits.min_z,
+        "terrain": scene.terrain.source if scene.terrain is not None else None,
+        "orientation_mismatches": int((orient > ORIENTATION_TOLERANCE_DEG).sum()),
+        "returns_to_start": bool(np.linalg.norm(route.positions[-1] - route.positions[0]) < 1e-6),
+        "safe": bool(len(unsafe) == 0 and len(low) == 0 and len(low_segments) == 0 and not ev.waypoint_inside.any()),
+        "security_m": security,
+        "d_opt_m": route.d_opt,
+    }
+
+
+def lowest_above_ground(points, limits: ViewLimits) -> np.ndarray:
+    """Per segment of the polyline, its lowest height above the ground (flat or terrain)."""
+    p = np.asarray(points, dtype=float).reshape(-1, 3)
+    if len(p) < 2:
+        return np.zeros(0)
+    if limits.terrain is not None:
+        return limits.terrain.lowest_above(p[:-1], p[1:])
+    return np.minimum(p[:-1, 2], p[1:, 2]) - limits.ground_z
+
+
+def _fmt(v, unit="") -> str:
+    if v is None:
+        return "-"
+    if isinstance(v, float):
+        return f"{v:,.2f}{unit}"
+    return f"{v}{unit}"
+
+
+def _worst_class(pct: dict) -> str:
+    if len(pct) < 2:
+        return ""
+    name = min(pct, key=pct.get)
+    return f" (least: {name.replace('_', ' ')} {pct[name]:.1f} %)"
+
+
+def format_metrics(m: dict) -> str:
+    """A terminal table of the metrics."""
+    def stats(name, s, unit=""):
+        return (name, f"min {_fmt(s['min'], unit)}  max {_fmt(s['max'], unit)}  mean {_fmt(s['mean'], unit)}")
+    rows = [
+        ("safe", "yes" if m["safe"] else "NO"),
+        ("min clearance", f"{_fmt(m['min_clearance_m'], ' m')} (security {m['security_m']:.2f} m"
+                          + (f", nearest {m['min_clearance_mesh']})" if m.get("min_clearance_mesh") else ")")),
+        ("unsafe segments", str(m["unsafe_segment_count"])),
+        ("waypoints inside meshes", str(m["waypoints_inside_meshes"])),
+        ("altitude violations", f"{m['altitude_violations']} waypoints, "
+                                f"{m.get('segments_below_min_altitude_count', 0)} segments (lowest "
+                                f"{_fmt(m.get('lowest_above_ground_m'), ' m')} above "
+                                f"{'the terrain' if m.get('terrain') else 'flat ground'}, minimum "
+                                f"{_fmt(m.get('min_altitude_m'), ' m')})"),
+        ("orientation mismatches", str(m["orientation_mismatches"])),
+        ("coverage of reachable", f"{m['coverage_pct']:.2f} % (checked every {m['sample_spacing_m']:.2f} m)"),
+        (f"seen within {SHARP_INCIDENCE_DEG:g} deg", f"{m['sharp_view_pct']:.1f} % of the covered surface"
+                               + _worst_class(m.get("sharp_view_by_class_pct", {}))),
+        ("reachable surface", f"{m['reachable_area_m2']:,.1f} of {m['surface_area_m2']:,.1f} m2"),
+        ("uncovered reachable", f"{m['uncovered_reachable_area_m2']:,.1f} m2 ({m['uncovered_reachable_samples']} samples)"),
+        ("unreachable", f"{m['unreachable_area_m2']:,.1f} m2 ({m['unreachable_samples']} samples)"),
+    ]
+    for g in m["unreachable"][:5]:
+        c = g["centroid"]
+        rows.append(("  why", f"{g['reason']}: {g['count']} samples, {g['area_m2']:.1f} m2 "
+                              f"around ({c[0]:.1f}, {c[1]:.1f}, {c[2]:.1f})"))
+    for cause, a in m["left_out_area_m2"].items():
+        rows.append((f"left out ({cause})", f"{a:,.1f} m2"))
+    rows += [
+        ("shots", str(m["shots"])),
+        ("path length", _fmt(m["path_length_m"], " m")),
+        stats("nt-imaged", m["nt_imaged"]),
+        stats("d-image", m["d_image_m"], " m"),
+        stats("db-viewpoints", m["db_viewpoints_m"], " m"),
+        ("p-outliers", str(m["p_outliers"])),
+        ("shots per m2", f"{m['shots_per_m2']:.4f}"),
+        ("path m per m2", f"{m['path_m_per_m2']:.4f}"),
+        ("samples", f"{m['samples']} at {m['sample_spacing_m']:.2f} m spacing"),
+    ]
+    g = m.get("shot_graph")
+    if g:
+        rows += [("matchable photo sets", f"{g['components']} (largest {g['largest_component']} of {g['shots']} photos)"),
+                 ("photos short of neighbours", f"{g['shots_short_of_neighbours']} (fewer than {g['min_neighbours']} "
+                                                f"sharing {100 * g['min_overlap']:.0f} % within {g['max_pair_deg']:g} deg)")]
+    width = max(len(r[0]) for r in rows)
+    return "\n".join(f"{name.ljust(width)}  {value}" for name, value in rows)

@@ -1,0 +1,192 @@
+"""Battery-sized flights: the planned tour split into flights that each start and end at the
+start point and fit one battery by the flight-time model.
+
+Route first, cluster second (Prins 2004's split for vehicle routing): the single tour over all
+shots, read in either direction, is cut into consecutive runs by a shortest-path search over
+all cut positions, each run costing its take-off and landing, the legs from the start to its
+first shot and back from its last, the legs between its shots and its photos; runs longer
+than the limit are not allowed. The best split by total flight time wins; each flight's own
+order is then improved as a tour from the start (tour.py) and kept if that is faster. All legs
+are the safe legs the planner flies (Dijkstra over the lattice, shortcut where safe).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.sparse.csgraph import dijkstra
+
+from coverplan.equipment.flighttime import FlightModel, leg_seconds
+from coverplan.errors import PlanningError
+from coverplan.flight.pathing import shortcut
+from coverplan.flight.route import polyline_length
+from coverplan.flight.tour import solve_tour
+from coverplan.geometry.orientation import heading_pitch
+
+MAX_ATTEMPTS = 6
+
+
+def transit_headings(positions, is_shot, heading) -> np.ndarray:
+    """Headings with transit points facing the way they fly (straight up or down: the last heading)."""
+    pos = np.asarray(positions, dtype=float)
+    out = np.array(heading, dtype=float)
+    n = len(pos)
+    last = 0.0
+    for k in range(n):
+        if is_shot[k]:
+            last = out[k]
+            continue
+        step = pos[min(k + 1, n - 1)] - pos[k]
+        if np.hypot(step[0], step[1]) > 1e-6:
+            last = float(heading_pitch(np.array([step[0], step[1], 0.0]))[0])
+        out[k] = last
+    return out
+
+
+@dataclass
+class Stops:
+    """What the split needs to know of the specials (start 0, shots 1..n)."""
+
+    heading: np.ndarray  # per special; start's entry unused
+    pitch: np.ndarray
+    height_m: float  # the start point above the ground (take-off and landing)
+
+
+def waypoint_times(model: FlightModel, waypoints, stops: Stops) -> dict:
+    """The model's time of one flight given as [(position, special or -1), ...]."""
+    pos = np.array([p for p, _ in waypoints])
+    special = np.array([s for _, s in waypoints])
+    shot = special > 0
+    heading = np.zeros(len(pos))
+    pitch = np.zeros(len(pos))
+    heading[shot] = stops.heading[special[shot]]
+    pitch[shot] = stops.pitch[special[shot]]
+    heading = transit_headings(pos, shot, heading)
+    return model.flight_seconds(pos, shot, heading, pitch, stops.height_m)
+
+
+def flight_table(route, model: FlightModel, limit_min: float | None = None) -> list[dict]:
+    """Per flight of ``route``: minutes by ``model`` (and their parts), shots, path length, and
+    the share of the flight limit it uses."""
+    ground = route.takeoff_z
+    rows = []
+    for k, idx in enumerate(route.flight_rows(), start=1):
+        p = route.positions[idx]
+        parts = model.flight_seconds(p, route.shot[idx], route.heading_deg[idx], route.pitch_deg[idx],
+                                     float(p[0, 2] - ground))
+        minutes = parts["total_s"] / 60.0
+        rows.append({"flight": k, "minutes": minutes, "shots": int(route.shot[idx].sum()),
+                     "waypoints": int(len(idx)), "path_m": polyline_length(p),
+                     "limit_share_pct": 100.0 * minutes / limit_min if limit_min else None,
+                     **{k2: v for k2, v in parts.items() if k2 != "total_s"}})
+    return rows
+
+
+def _legs_of(waypoints) -> list[np.ndarray]:
+    """Polylines between consecutive specials of a flown list."""
+    legs, current = [], [waypoints[0][0]]
+    for p, s in waypoints[1:]:
+        current.append(p)
+        if s >= 0:
+            legs.append(np.array(current))
+            current = [p]
+    return legs
+
+
+def _start_legs(fg, n_special: int, clearance, radius: float, floor=None) -> list[np.ndarray]:
+    """The safe polyline from the start to every shot along one shortest-path tree."""
+    source = fg.special(0)
+    _dist, pred = dijkstra(fg.graph, directed=True, indices=source, return_predecessors=True)
+    targets = fg.special(np.arange(1, n_special))
+    hops = [targets]
+    cur = targets.copy()
+    while (cur != source).any():  # walk all paths back at once
+        cur = np.where(cur == source, source, pred[cur])
+        if (cur < 0).any():
+            raise RuntimeError("a shot has no path from the start")
+        hops.append(cur)
+    hops = np.array(hops)  # (steps, shots), each column from its shot back to the source
+    out = []
+    for k in range(len(targets)):
+        column = hops[:, k]
+        nodes = column[: int(np.argmax(column == source)) + 1][::-1]
+        pts = fg.points[nodes]
+        out.append(pts[shortcut(pts, clearance, radius, floor=floor)])
+    return out
+
+
+def _best_split(sequence, start_s, between_s, photo_s, ground_s, limit_s):
+    """Cut ``sequence`` (shot ids) into runs of at most ``limit_s`` minimising the total time.
+    ``between_s[k]``: time from sequence[k] to sequence[k+1]. Returns (total, cuts) or (inf, None)."""
+    n = len(sequence)
+    first = start_s[sequence]  # start -> shot, and back (legs are flown both ways)
+    inner = np.concatenate([[0.0], np.cumsum(between_s)])  # inner[j] - inner[i]: legs i..j
+    best = np.full(n + 1, np.inf)
+    best[0] = 0.0
+    came = np.full(n + 1, -1)
+    for i in range(n):
+        if not np.isfinite(best[i]):
+            continue
+        j = np.arange(i, n)
+        cost = ground_s + first[i] + (inner[j] - inner[i]) + first[j] + photo_s * (j - i + 1)
+        better = (cost <= limit_s) & (best[i] + cost < best[j + 1])
+        best[j[better] + 1] = best[i] + cost[better]
+        came[j[better] + 1] = i
+    if not np.isfinite(best[n]):
+        return np.inf, None
+    cuts, j = [], n
+    while j > 0:
+        cuts.append((came[j], j))
+        j = came[j]
+    return best[n], cuts[::-1]
+
+
+def split_flights(fg, order, closure, fly, model: FlightModel, stops: Stops, max_seconds: float,
+                  clearance, radius: float, floor=None) -> list[list]:
+    """Flights (each a flown waypoint list from the start back to it) covering every shot of
+    the tour ``order`` once, each within ``max_seconds`` by ``model``."""
+    order = np.asarray(order)
+    n_special = len(closure)
+    single = fly(order)
+    start_legs = _start_legs(fg, n_special, clearance, radius, floor)
+    start_s = np.zeros(n_special)
+    for i, pts in enumerate(start_legs, start=1):
+        start_s[i] = leg_seconds(model, pts, np.nan, stops.heading[i], 0.0, stops.pitch[i])
+    legs = _legs_of(single)  # start->s1, s1->s2, ..., sn->start
+    shots = order[1:]
+    between = np.array([leg_seconds(model, pts, stops.heading[a], stops.heading[b], stops.pitch[a], stops.pitch[b])
+                        for pts, a, b in zip(legs[1:-1], shots[:-1], shots[1:])])
+    photo_s, ground_s = model.photo_seconds, model.takeoff_landing_seconds(stops.height_m)
+    alone = ground_s + 2 * start_s[1:] + photo_s
+    if alone.min() > max_seconds:
+        raise PlanningError(f"a flight of {max_seconds / 60:.1f} min is too short to reach the nearest shot and "
+                            f"return: that takes {alone.min() / 60:.1f} min; raise --max-flight-min")
+    if alone.max() > max_seconds:
+        raise PlanningError(f"a flight of {max_seconds / 60:.1f} min cannot reach {int((alone > max_seconds).sum())} "
+                            f"of the shots and return: the farthest alone takes {alone.max() / 60:.1f} min; raise "
+                            "--max-flight-min")
+    limit = max_seconds
+    for _attempt in range(MAX_ATTEMPTS):
+        candidates = []
+        for seq, btw in ((shots, between), (shots[::-1], between[::-1])):
+            total, cuts = _best_split(seq, start_s, btw, photo_s, ground_s, limit)
+            if cuts is not None:
+                candidates.append((total, [seq[a:b] for a, b in cuts]))
+        if not candidates:
+            break
+        runs = min(candidates, key=lambda c: c[0])[1]
+        flights, worst = [], 0.0
+        for run in runs:
+            sub = np.concatenate([[0], run])
+            as_cut = fly(sub)
+            reordered = fly(sub[solve_tour(closure[np.ix_(sub, sub)])])
+            times = [waypoint_times(model, w, stops)["total_s"] for w in (as_cut, reordered)]
+            pick = int(np.argmin(times))
+            flights.append((as_cut, reordered)[pick])
+            worst = max(worst, times[pick] / max_seconds)
+        if worst <= 1.0:
+            return flights
+        limit = limit / worst * 0.995  # the estimates were short by this much: split tighter
+    raise PlanningError(f"could not split the tour into flights of {max_seconds / 60:.1f} min; "
+                        "raise --max-flight-min")

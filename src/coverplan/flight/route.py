@@ -1,0 +1,299 @@
+"""Route: the flight as DESIGN.md's route file describes it, with save / load / validate."""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from coverplan.equipment.camera import Camera
+from coverplan.errors import ParameterError, RouteFormatError
+from coverplan.files import read_json, write_atomic
+from coverplan.geometry.orientation import (
+    angle_between_deg,
+    heading_pitch,
+    view_direction,
+)
+
+FORMAT = "coverplan-route"
+VERSION = 1
+LEGS = ("initial", "coverage", "final")
+DEFAULT_PARAMS = {"min_views": 2, "min_triangulation_deg": 5.0, "max_incidence_deg": 70.0}
+
+
+def polyline_length(points) -> float:
+    """Length of the polyline through ``points`` (n x 3)."""
+    p = np.asarray(points, dtype=float).reshape(-1, 3)
+    return float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()) if len(p) > 1 else 0.0
+
+
+def coverage_length(points, shot) -> float:
+    """Length from the first shot to the last (the thesis's tables count only this)."""
+    rows = np.flatnonzero(shot)
+    return polyline_length(np.asarray(points)[rows[0]:rows[-1] + 1]) if len(rows) else 0.0
+
+
+@dataclass
+class Route:
+    """Waypoints (local metres), the camera and parameters, and what the plan left uncovered."""
+
+    positions: np.ndarray  # (n, 3)
+    shot: np.ndarray  # (n,) bool
+    heading_deg: np.ndarray  # (n,)
+    pitch_deg: np.ndarray  # (n,)
+    leg: list[str]
+    camera: Camera
+    params: dict
+    view_dir: np.ndarray | None = None  # (n, 3); derived from heading/pitch when None
+    frame: dict = field(default_factory=lambda: {"crs": None, "origin": [0.0, 0.0, 0.0]})
+    uncovered: list[dict] = field(default_factory=list)
+    metrics: dict = field(default_factory=dict)
+    extra: dict = field(default_factory=dict)
+    flight: np.ndarray | None = None  # (n,) 1, 2, ...: the battery flight of each waypoint
+    ground_z: np.ndarray | None = None  # (n,) the terrain's height under each waypoint (planned over terrain)
+
+    def __post_init__(self):
+        self.positions = np.asarray(self.positions, dtype=float).reshape(-1, 3)
+        self.shot = np.asarray(self.shot, dtype=bool)
+        self.heading_deg = np.mod(np.asarray(self.heading_deg, dtype=float), 360.0)
+        self.pitch_deg = np.asarray(self.pitch_deg, dtype=float)
+        if self.view_dir is None:
+            self.view_dir = view_direction(self.heading_deg, self.pitch_deg)
+        self.view_dir = np.asarray(self.view_dir, dtype=float).reshape(-1, 3)
+        self.leg = list(self.leg)
+        self.flight = np.ones(len(self.positions), dtype=int) if self.flight is None else \
+            np.asarray(self.flight, dtype=int).reshape(-1)
+        if self.ground_z is not None:
+            self.ground_z = np.asarray(self.ground_z, dtype=float).reshape(-1)
+
+    def __len__(self) -> int:
+        return len(self.positions)
+
+    @property
+    def shots(self) -> np.ndarray:
+        return np.flatnonzero(self.shot)
+
+    @property
+    def path_length(self) -> float:
+        return polyline_length(self.positions)
+
+    @property
+    def coverage_length(self) -> float:
+        """Length from the first shot to the last (the thesis's tables count only this)."""
+        return coverage_length(self.positions, self.shot)
+
+    @property
+    def n_flights(self) -> int:
+        return int(self.flight.max()) if len(self.flight) else 0
+
+    @property
+    def takeoff_z(self) -> float:
+        """Height of the ground the drone takes off from (under the first waypoint): the
+        reference of heights "relative to take-off"."""
+        if self.ground_z is not None:
+            return float(self.ground_z[0])
+        return float(self.params.get("ground_z_m", self.positions[:, 2].min()))
+
+    def above_ground(self) -> np.ndarray:
+        """Each waypoint's height above the ground under it (the flat ground without terrain)."""
+        return self.positions[:, 2] - (self.ground_z if self.ground_z is not None else self.takeoff_z)
+
+    def flight_rows(self) -> list[np.ndarray]:
+        """Waypoint rows of each battery flight, in order (each from the start point back to it)."""
+        return [np.flatnonzero(self.flight == k) for k in range(1, self.n_flights + 1)]
+
+    def flight_route(self, k: int) -> "Route":
+        """Flight ``k`` (1-based) alone, as a route of its own."""
+        rows = np.flatnonzero(self.flight == k)
+        return Route(self.positions[rows], self.shot[rows], self.heading_deg[rows], self.pitch_deg[rows],
+                     [self.leg[r] for r in rows], self.camera, dict(self.params), view_dir=self.view_dir[rows],
+                     frame=self.frame, metrics={}, extra=dict(self.extra),
+                     ground_z=None if self.ground_z is None else self.ground_z[rows])
+
+    def flight_minutes(self, speed: float, shot_seconds: float) -> float:
+        """The simple estimate: the path at ``speed`` m/s plus ``shot_seconds`` per photo."""
+        return (self.path_length / speed + int(self.shot.sum()) * shot_seconds) / 60.0
+
+    @property
+    def gsd(self) -> float:
+        return float(self.params["gsd_m"])
+
+    @property
+    def security(self) -> float:
+        return float(self.params["security_m"])
+
+    @property
+    def d_opt(self) -> float:
+        return self.camera.optimal_distance(self.gsd)
+
+    def param(self, name):
+        return self.params.get(name, DEFAULT_PARAMS.get(name))
+
+    # -- file format -----------------------------------------------------------------
+    def to_dict(self) -> dict:
+        waypoints = []
+        several = self.n_flights > 1
+        for k in range(len(self)):
+            waypoints.append({
+                "position": _round(self.positions[k], 4),
+                "shot": bool(self.shot[k]),
+                "view_dir": _round(self.view_dir[k], 6),
+                "heading_deg": round(float(self.heading_deg[k]), 4),
+                "gimbal_pitch_deg": round(float(self.pitch_deg[k]), 4),
+                "leg": self.leg[k],
+                **({"flight": int(self.flight[k])} if several else {}),
+                **({"ground_z": round(float(self.ground_z[k]), 4)} if self.ground_z is not None else {}),
+            })
+        d = {
+            "format": FORMAT, "version": VERSION, "units": "m",
+            "frame": {"crs": self.frame.get("crs"), "origin": [float(v) for v in self.frame.get("origin", [0, 0, 0])]},
+            "camera": self.camera.to_dict(),
+            "params": _jsonable(self.params),
+            "waypoints": waypoints,
+            "uncovered": _jsonable(self.uncovered),
+            "metrics": _jsonable(self.metrics),
+        }
+        if self.extra:
+            d["planner"] = _jsonable(self.extra)
+        return d
+
+    def save(self, path, force: bool = True) -> Path:
+        """Write the route file atomically (temporary file, then rename)."""
+        path = Path(path)
+        if path.exists() and not force:
+            raise ParameterError(f"{path} exists; pass --force to overwrite it")
+        return write_atomic(path, json.dumps(self.to_dict(), indent=1, allow_nan=False))
+
+    @classmethod
+    def load(cls, path) -> "Route":
+        path = Path(path)
+        if not path.exists():
+            raise RouteFormatError(path, "no such file")
+        return cls.from_dict(read_json(path, RouteFormatError), path)
+
+    @classmethod
+    def from_dict(cls, data, path="route") -> "Route":
+        if not isinstance(data, dict):
+            raise RouteFormatError(path, "is not a route: expected a JSON object")
+        if data.get("format") != FORMAT:
+            raise RouteFormatError(path, f"is not a route: 'format' is {data.get('format')!r}, expected {FORMAT!r}")
+        if data.get("version") != VERSION:
+            raise RouteFormatError(path, f"route version {data.get('version')!r} is not supported (expected {VERSION})")
+        if data.get("units", "m") != "m":
+            raise RouteFormatError(path, f"route units must be 'm', got {data.get('units')!r}")
+        try:
+            camera = Camera.from_dict(_require(data, "camera", dict, path))
+        except ParameterError as exc:
+            raise RouteFormatError(path, str(exc)) from None
+        params = _require(data, "params", dict, path)
+        for key in ("gsd_m", "security_m"):
+            if not _positive(params.get(key)):
+                raise RouteFormatError(path, f"params.{key} must be a positive number, got {params.get(key)!r}")
+        waypoints = _require(data, "waypoints", list, path)
+        if not waypoints:
+            raise RouteFormatError(path, "has no waypoints")
+        pos, shot, vdir, head, pitch, leg, flight, ground = [], [], [], [], [], [], [], []
+        for k, wp in enumerate(waypoints):
+            if not isinstance(wp, dict):
+                raise RouteFormatError(path, f"waypoint {k} is not an object")
+            pos.append(_vector(wp.get("position"), f"waypoint {k} position", path))
+            shot.append(bool(wp.get("shot", False)))
+            h, p = wp.get("heading_deg"), wp.get("gimbal_pitch_deg")
+            vd = wp.get("view_dir")
+            if vd is None and (h is None or p is None):
+                if shot[-1]:
+                    raise RouteFormatError(path, f"waypoint {k} is a photo but has neither view_dir nor "
+                                                 "heading_deg/gimbal_pitch_deg")
+                h, p = 0.0, 0.0  # a waypoint without a photo needs no orientation
+            if h is not None and not _finite(h) or p is not None and not _finite(p):
+                raise RouteFormatError(path, f"waypoint {k} heading/pitch must be finite numbers")
+            vd = _vector(vd, f"waypoint {k} view_dir", path) if vd is not None else None
+            if vd is not None and np.linalg.norm(vd) == 0:
+                raise RouteFormatError(path, f"waypoint {k} view_dir is zero")
+            if h is None or p is None:
+                h, p = (float(a) for a in heading_pitch(vd))
+            vdir.append(vd if vd is not None else view_direction(h, p))
+            head.append(float(h))
+            pitch.append(float(p))
+            lg = wp.get("leg", "coverage")
+            if lg not in LEGS:
+                raise RouteFormatError(path, f"waypoint {k} leg {lg!r} is not one of {', '.join(LEGS)}")
+            leg.append(lg)
+            fl = wp.get("flight", 1)
+            whole = isinstance(fl, int) and not isinstance(fl, bool) and fl >= 1
+            if not whole or (flight and fl not in (flight[-1], flight[-1] + 1)):
+                raise RouteFormatError(path, f"waypoint {k} flight {fl!r} must be a whole number >= 1 that stays or "
+                                             "goes up by one from the waypoint before")
+            flight.append(fl)
+            g = wp.get("ground_z")
+            if (g is not None and not _finite(g)) or (k > 0 and (g is None) != (len(ground) == 0)):
+                raise RouteFormatError(path, f"waypoint {k} ground_z must be a finite number, given for every "
+                                             "waypoint or for none")
+            if g is not None:
+                ground.append(float(g))
+        if flight[0] != 1:
+            raise RouteFormatError(path, "the first waypoint must be in flight 1")
+        frame = data.get("frame") or {"crs": None, "origin": [0.0, 0.0, 0.0]}
+        if not isinstance(frame, dict):
+            raise RouteFormatError(path, "'frame' must be an object")
+        frame = {"crs": frame.get("crs"),
+                 "origin": list(_vector(frame.get("origin", [0, 0, 0]), "frame.origin", path)),
+                 **{k: v for k, v in frame.items() if k not in ("crs", "origin")}}
+        uncovered = data.get("uncovered", [])
+        if not isinstance(uncovered, list):
+            raise RouteFormatError(path, "'uncovered' must be a list")
+        vdir = np.array(vdir, dtype=float)
+        vdir /= np.linalg.norm(vdir, axis=1, keepdims=True)
+        return cls(np.array(pos), np.array(shot), np.array(head), np.array(pitch), leg, camera, dict(params),
+                   view_dir=vdir, frame=frame, uncovered=uncovered, metrics=data.get("metrics") or {},
+                   extra=data.get("planner") or {}, flight=np.array(flight),
+                   ground_z=np.array(ground) if ground else None)
+
+    def orientation_errors_deg(self) -> np.ndarray:
+        """Angle between each waypoint's view_dir and the one its heading and pitch give."""
+        return angle_between_deg(self.view_dir, view_direction(self.heading_deg, self.pitch_deg))
+
+
+def _require(data, key, kind, path):
+    if key not in data:
+        raise RouteFormatError(path, f"is missing '{key}'")
+    if not isinstance(data[key], kind):
+        raise RouteFormatError(path, f"'{key}' must be a {'list' if kind is list else 'object'}")
+    return data[key]
+
+
+def _finite(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _positive(v) -> bool:
+    return _finite(v) and v > 0
+
+
+def _vector(value, what, path) -> np.ndarray:
+    if not isinstance(value, (list, tuple)) or len(value) != 3 or not all(_finite(v) for v in value):
+        raise RouteFormatError(path, f"{what} must be three finite numbers, got {value!r}")
+    return np.array(value, dtype=float)
+
+
+def _round(v, digits):
+    return [round(float(x), digits) for x in v]
+
+
+def _jsonable(obj):
+    if isinstance(obj, dict):
+        return {str(k): _jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonable(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return _jsonable(obj.tolist())
+    if isinstance(obj, (np.integer,)):
+        return int(obj)
+    if isinstance(obj, (np.floating, float)):
+        return float(obj) if math.isfinite(obj) else None
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    return obj

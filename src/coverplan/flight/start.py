@@ -1,0 +1,59 @@
+"""Where the flight starts: a safe point beside the target, or the user's, checked."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from coverplan.errors import ParameterError, PlanningError
+from coverplan.shots.reachability import ViewLimits
+
+
+def default_start(scene, limits: ViewLimits, margin: float) -> np.ndarray:
+    """A point just outside the shot region, north-west of the target, at the minimum altitude."""
+    lo, hi = scene.bounds("target")
+    clearance = scene.clearance_model(limits.security)
+    centre = (lo + hi) / 2.0
+    for extra in np.arange(1.0, 20.0, 1.0) * max(limits.d_opt, 1.0):
+        angles = np.radians(np.arange(135.0, 135.0 + 360.0, 15.0))
+        r = np.linalg.norm(hi[:2] - lo[:2]) / 2.0 + extra
+        xy = np.column_stack([centre[0] + r * np.cos(angles), centre[1] + r * np.sin(angles)])
+        pts = np.column_stack([xy, limits.floor_at(xy)])
+        ok = clearance.points_clear(pts, limits.security + margin)
+        if ok.any():
+            return pts[np.argmax(ok)]
+    raise PlanningError("found no safe start point near the target; give one with --start X Y Z")
+
+
+MAX_START_DISTANCE_M = 5_000.0  # farther than any battery flies: a coordinate mix-up
+
+
+def check_start(scene, start, limits: ViewLimits) -> tuple[np.ndarray, list[str]]:
+    """The start point given, raised to the minimum altitude, refused inside or near a mesh or far
+    from the target; returns it with notes on what was changed."""
+    notes = []
+    start = np.asarray(start, dtype=float).reshape(3)
+    if not np.isfinite(start).all():
+        raise ParameterError(f"start point must be three finite numbers, got {start.tolist()}")
+    lo, hi = scene.bounds("target")
+    away = float(np.linalg.norm(np.maximum(np.maximum(lo - start, start - hi), 0.0)))
+    if away > MAX_START_DISTANCE_M:
+        centre = scene.to_source((lo + hi) / 2.0)
+        raise ParameterError(
+            f"start point is {away / 1000:,.0f} km from the target; give it in the same coordinates as the input "
+            f"models (the target's centre is at {', '.join(f'{v:.1f}' for v in centre)})")
+    floor = float(limits.floor_at(start[None, :2])[0])
+    if start[2] < floor:
+        notes.append(f"start raised from z={start[2]:.2f} to the minimum altitude z={floor:.2f}"
+                     + (" above the terrain" if limits.terrain is not None else ""))
+        start = start.copy()
+        start[2] = floor
+    inside = scene.rays.inside(start[None])[0]
+    if inside >= 0:
+        raise PlanningError(f"start point {start.round(2).tolist()} is inside {scene.describe(int(inside))}")
+    clearance = scene.clearance_model(limits.security)
+    d, which = clearance.point_distance(start[None])
+    if d[0] < limits.security:
+        raise PlanningError(f"start point {start.round(2).tolist()} is {d[0]:.2f} m from "
+                            f"{scene.describe(int(which[0]))}, closer than the security distance "
+                            f"{limits.security:g} m")
+    return start, notes

@@ -1,0 +1,146 @@
+"""Formats by name: the registry's readers and writers looked up, and routes exported.
+
+Importing this module imports every reader and writer module, which enters them in
+:mod:`coverplan.io.registry`.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from coverplan.equipment.drones import WAYPOINT_LIMITS
+from coverplan.errors import InputFileError, ParameterError
+from coverplan.io import (  # noqa: F401
+    citygml,
+    cityjson,
+    csv_waypoints,
+    footprints,
+    geojson,
+    kml,
+    litchi,
+    meshes,
+    qgc,
+    wpml,
+)
+from coverplan.io.registry import (
+    CITY_READERS,
+    MISSION_READERS,
+    READERS,
+    WRITERS,
+    MeshSource,
+    Writer,
+)
+
+
+def mission_extensions() -> list[str]:
+    return sorted(MISSION_READERS)
+
+
+def read_mission(path):
+    """Read a QGroundControl / Mission Planner / Litchi mission; errors name the file."""
+    path = Path(path)
+    if not path.exists():
+        raise InputFileError(path, "no such file")
+    if path.is_dir() or path.stat().st_size == 0:
+        raise InputFileError(path, "is a directory" if path.is_dir() else "is empty")
+    reader = MISSION_READERS.get(path.suffix.lower().lstrip("."))
+    if reader is None:
+        raise InputFileError(path, f"is not a route or mission file; give a coverplan route (.json) or a mission: "
+                                   f"{', '.join('.' + e for e in mission_extensions())}")
+    try:
+        return reader(path)
+    except UnicodeDecodeError:
+        raise InputFileError(path, "is not UTF-8 text") from None
+
+
+def _extension(path: Path) -> str:
+    name = path.name.lower()
+    for ext in sorted(READERS, key=len, reverse=True):
+        if name.endswith("." + ext):
+            return ext
+    return path.suffix.lower().lstrip(".")
+
+
+def _readable(path) -> Path:
+    path = Path(path)
+    if not path.exists():
+        raise InputFileError(path, "no such file")
+    if path.is_dir():
+        raise InputFileError(path, "is a directory, not a mesh file")
+    if not os.access(path, os.R_OK):
+        raise InputFileError(path, "cannot be read (permission denied)")
+    if path.stat().st_size == 0:
+        raise InputFileError(path, "is empty")
+    return path
+
+
+def read_file(path, **options) -> MeshSource:
+    """Read any supported scene file; errors name the file and the problem."""
+    path = _readable(path)
+    ext = _extension(path)
+    reader = READERS.get(ext)
+    if reader is None:
+        raise InputFileError(
+            path, f"unsupported format '.{ext}'; supported: {', '.join(supported_extensions())}")
+    return reader(path, **options)
+
+
+def read_city_model(path):
+    """Read a whole CityGML / CityJSON file once (an io.city.CityModel)."""
+    path = _readable(path)
+    reader = CITY_READERS.get(_extension(path))
+    if reader is None:
+        raise InputFileError(path, "is not a city model; give a CityGML (.gml) or CityJSON (.city.json, "
+                                   ".json, .jsonl, optionally .gz) file")
+    return reader(path)
+
+
+def supported_extensions() -> list[str]:
+    return sorted(READERS)
+
+
+def writer(name: str) -> tuple[Writer, str]:
+    try:
+        return WRITERS[name]
+    except KeyError:
+        raise ParameterError(
+            f"unknown export format {name!r}; formats: {', '.join(sorted(WRITERS))}") from None
+
+
+def writer_names() -> list[str]:
+    return sorted(WRITERS)
+
+
+GEOGRAPHIC_FORMATS = {"qgc", "wpl", "litchi", "kml", "geojson", "wpml"}  # need the route placed on Earth
+
+
+def parse_formats(text: str | None) -> list[str]:
+    """Export format names from 'qgc,kml' (a ParameterError for unknown ones)."""
+    if not text:
+        return []
+    names = [n.strip().lower() for n in text.split(",") if n.strip()]
+    unknown = [n for n in names if n not in writer_names()]
+    if unknown:
+        raise ParameterError(f"unknown export format {', '.join(unknown)}; formats: {', '.join(writer_names())}")
+    return names
+
+
+def export_route(route, stem, formats, **options) -> list[Path]:
+    """Write ``route`` in each format as STEM + the format's suffix; a route of several battery
+    flights as one file per flight, STEM.f1 + suffix, STEM.f2 + suffix, ... Nothing is written
+    when a flight has more waypoints than a format's app takes."""
+    flights = [route] if route.n_flights <= 1 else [route.flight_route(k) for k in range(1, route.n_flights + 1)]
+    for name in formats:
+        limit = WAYPOINT_LIMITS.get(name)
+        for k, flight in enumerate(flights, start=1):
+            if limit is not None and len(flight) > limit:
+                which = f"flight {k} has" if len(flights) > 1 else "the flight has"
+                raise ParameterError(f"{which} {len(flight)} waypoints, but {name} missions take at most {limit}; "
+                                     "plan shorter flights (--max-flight-min) or export another format")
+    written = []
+    for name in formats:
+        func, suffix = writer(name)
+        for k, flight in enumerate(flights, start=1):
+            written += func(flight, f"{stem}{'' if len(flights) == 1 else f'.f{k}'}{suffix}", **options)
+    return written

@@ -1,0 +1,70 @@
+"""The one registry of readers and writers, keyed by file extension / format name.
+
+Reader and writer modules enter themselves here with the ``register_*`` decorators;
+:mod:`coverplan.io.formats` imports them all and looks formats up.
+Readers return a :class:`MeshSource` (named meshes in metres, plus CRS if the file has
+one); writers take a :class:`~coverplan.flight.route.Route` and a path.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable
+
+import numpy as np
+import trimesh
+
+
+@dataclass
+class MeshSource:
+    """What a reader found in one file: named meshes and optional georeferencing."""
+
+    meshes: list[tuple[str, trimesh.Trimesh]]
+    crs: str | None = None
+    # names of meshes the file itself marks as the target (e.g. the chosen building)
+    target_names: list[str] | None = None
+    notes: list[str] = field(default_factory=list)
+    vertical_crs: str | None = None  # heights' datum, when the file names one
+    path: Path | None = None  # the file it came from, when handed on already read
+    ground: np.ndarray | None = None  # (n, 3, 3) triangles of the ground (a city model's relief, roads...)
+    stand_on_terrain: bool = False  # meshes built from z 0 (extruded footprints): lift each onto the terrain
+
+
+Reader = Callable[..., MeshSource]
+Writer = Callable[..., list[Path]]
+
+READERS: dict[str, Reader] = {}
+MISSION_READERS: dict[str, Callable] = {}
+CITY_READERS: dict[str, Callable] = {}
+WRITERS: dict[str, tuple[Writer, str]] = {}
+
+
+def _by_extension(table: dict, extensions) -> Callable:
+    """A decorator entering the function in ``table`` under each extension."""
+    def wrap(func):
+        for ext in extensions:
+            table[ext.lower()] = func
+        return func
+    return wrap
+
+
+def register_reader(*extensions: str):
+    return _by_extension(READERS, extensions)
+
+
+def register_writer(name: str, suffix: str):
+    def wrap(func: Writer) -> Writer:
+        WRITERS[name] = (func, suffix)
+        return func
+    return wrap
+
+
+def register_city_reader(*extensions: str):
+    """Readers of whole city models (CityGML, CityJSON): path -> io.city.CityModel."""
+    return _by_extension(CITY_READERS, extensions)
+
+
+def register_mission_reader(*extensions: str):
+    """Readers of flight-app missions (flight/missions.py): path -> Mission."""
+    return _by_extension(MISSION_READERS, extensions)

@@ -1,0 +1,74 @@
+"""One planning job, as ``coverplan plan`` and ``coverplan batch`` both run it: plan ->
+evaluate -> save -> report and figures -> exports."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from coverplan.evaluation import Evaluation, evaluate
+from coverplan.flight.route import Route
+from coverplan.io.formats import export_route
+from coverplan.planning.planner import plan
+from coverplan.progress import Progress
+from coverplan.report import write_figures, write_html_report
+
+
+@dataclass(frozen=True)
+class JobResult:
+    """The route, the evaluator's verdict (None when not evaluated) and the files written."""
+
+    route: Route
+    evaluation: Evaluation | None
+    written: list[Path] = field(default_factory=list)
+    exports_withheld: bool = False  # the evaluator found the route unsafe: no mission written
+
+
+def write_pictures(route: Route, scene, evaluation: Evaluation | None, report=None, plot=None,
+                   progress: Progress | None = None, simulation=None, title: str | None = None) -> list[Path]:
+    """The HTML report (``report``: its path) and PNG figures (``plot``: their folder)."""
+    progress = progress or Progress()
+    written = []
+    if report:
+        with progress.stage("HTML report"):
+            written.append(write_html_report(route, scene, report, evaluation=evaluation, title=title,
+                                             simulation=simulation))
+    if plot:
+        with progress.stage("PNG figures"):
+            written += write_figures(route, scene, plot, evaluation=evaluation, simulation=simulation)
+    return written
+
+
+def run_job(scene, camera, out, *, formats=(), export_options: dict | None = None, evaluated: bool = True,
+            report=None, plot=None, title: str | None = None, start=None, progress: Progress | None = None,
+            **plan_options) -> JobResult:
+    """Plan ``scene`` and write the route file ``out`` (.json), its report, figures and exports.
+
+    Parameters
+    ----------
+    scene : Scene
+    camera : Camera
+    out : path
+        The route file; exports are named after it without ``.json`` (``export_route``).
+    formats : sequence of str
+        Export formats (``io.writer_names()``). Withheld when the evaluator finds the route unsafe.
+    evaluated : bool
+        Run the evaluator (always when a report or figures are asked).
+    plan_options
+        ``plan``'s keyword arguments (PlanSettings fields, ``drone``, ``flight_model``).
+    """
+    progress = progress or Progress()
+    out = Path(out)
+    route = plan(scene, camera, start=start, progress=progress, **plan_options)
+    ev = None
+    if evaluated or report or plot:
+        with progress.stage("evaluate"):
+            ev = evaluate(route, scene)
+        route.metrics["evaluation"] = ev.metrics
+    route.save(out, force=True)
+    written = [out] + write_pictures(route, scene, ev, report, plot, progress, title=title)
+    withheld = ev is not None and not ev.safe and bool(formats)
+    if not withheld:  # never hand a pilot a mission the evaluator found unsafe
+        stem = str(out)[:-5] if str(out).lower().endswith(".json") else str(out)
+        written += export_route(route, stem, list(formats), **(export_options or {}))
+    return JobResult(route, ev, written, withheld)

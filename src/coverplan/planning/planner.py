@@ -1,0 +1,71 @@
+"""plan(): scene + camera + detail + security distance -> one safe flight covering the target.
+
+The stages (DESIGN.md's pipeline, :mod:`coverplan.planning.stages`): surface samples ->
+reachability -> candidate viewpoints -> visibility matrix -> view selection -> closing the
+gaps -> flight graph -> tour -> legs -> Route.
+"""
+
+from __future__ import annotations
+
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import replace
+
+from coverplan.equipment.camera import Camera
+from coverplan.equipment.drones import DroneProfile
+from coverplan.equipment.flighttime import FlightModel
+from coverplan.flight.route import Route
+from coverplan.planning.settings import PlanSettings
+from coverplan.planning.stages import (
+    build_problem,
+    close_gaps,
+    fly,
+    make_route,
+    resolve,
+    select_shots,
+)
+from coverplan.progress import Progress
+
+
+def plan(scene, camera: Camera, settings: PlanSettings | None = None, *, start=None,
+         drone: DroneProfile | None = None, flight_model: FlightModel | None = None,
+         progress: Progress | None = None, **options) -> Route:
+    """Plan one flight from ``start`` over shots covering the target and back.
+
+    Parameters
+    ----------
+    scene : Scene
+        Target, obstacles and ground (``load_scene``).
+    camera : Camera
+        The camera the photos are taken with (``get_camera``).
+    settings : PlanSettings, optional
+        The plan's settings; ``options`` (any PlanSettings field: ``gsd``, ``security``,
+        ``rule``, ``pose_margin``, ...) replace fields of it, or make it when it is None.
+    start : (3,) float, optional
+        Take-off point in the scene's local frame (``scene.to_local`` moves a point of the
+        input models there); None: a safe point beside the target. A start more than 5 km
+        from the target is refused as a coordinate mix-up.
+    drone : DroneProfile, optional
+        Gimbal range, flight-time model, usable battery minutes and pose error (the margin).
+    flight_model : FlightModel, optional
+        Overrides the drone's flight-time model.
+    progress : Progress, optional
+
+    Returns
+    -------
+    Route
+        Surface no safe position can image is planned around and listed in ``route.uncovered``.
+
+    Raises ParameterError / PlanningError, with a one-line message, on impossible settings.
+    """
+    t0 = time.perf_counter()
+    progress = progress or Progress()
+    settings = PlanSettings(**options) if settings is None else replace(settings, **options)
+    setup = resolve(scene, camera, settings, drone, flight_model, start)
+    with ThreadPoolExecutor(max_workers=1) as pool:  # work for later stages, on the other core
+        problem = build_problem(scene, setup, progress, pool)
+        selection = select_shots(problem, setup, progress)
+        gaps = close_gaps(problem, selection, setup, progress)
+        flight = fly(scene, problem, gaps, setup, progress)
+    return make_route(scene, setup, problem, selection, gaps, flight, progress.timings,
+                      time.perf_counter() - t0)

@@ -1,0 +1,191 @@
+"""PlanSettings: every setting of a plan, with its default and its range check, in one place."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from coverplan.equipment.camera import Camera, check_positive
+from coverplan.equipment.margin import MARGINS
+from coverplan.errors import ParameterError, PlanningError
+from coverplan.shots.reconstructability import MatchRule
+
+RULES = ("sfm", "thesis")
+
+
+@dataclass(frozen=True)
+class PlanSettings:
+    """What the plan must achieve and how hard the planner may work for it.
+
+    Parameters
+    ----------
+    gsd : float
+        Ground sample distance asked for, m/px; with the camera it fixes the optimal
+        distance ``d_opt``.
+    security : float
+        Distance the drone keeps from every mesh and the ground, m.
+    rule : {"sfm", "thesis"}
+        "sfm" plans for a reconstruction (``min_views`` 3, pairs that triangulate and match,
+        shots linked into one matchable set, reconstructability.py); "thesis" is the thesis's
+        rule (``min_views`` 2, any pair wide enough).
+    min_views : int or None
+        Views per sample; None takes the rule's (3 for "sfm", 2 for "thesis").
+    min_triangulation_deg : float
+        Narrowest pair angle that triangulates, degrees in [0, 90).
+    match : MatchRule or None
+        The "sfm" rule's matching settings; None takes ``MatchRule()`` (and is None under
+        "thesis").
+    max_incidence_deg : float
+        Steepest view on a surface, degrees in (0, 90).
+    min_altitude : float or None
+        Lowest flight height above the ground, m; None: the security distance.
+    spacing : float or None
+        Surface sample spacing, m; None: from the scene and ``d_opt``.
+    gimbal_pitch_range_deg : (2,) float or None
+        Gimbal pitch range; None: the drone's, else -90..30.
+    cost_weight : float
+        Weight of the security + optimal placement cost in the flight graph.
+    max_flight_min : float or None
+        Longest battery flight in minutes; None: the drone's usable minutes, or no split.
+    lattice_spacing_m : float or None
+        Flight-graph lattice spacing; None: chosen to keep the lattice within its node cap.
+    lp_time_limit : float
+        Seconds the view-selection LP may take.
+    max_memory : float or None
+        Bytes the plan may use; None: 80 % of this machine's RAM.
+    surface_classes : tuple of str or None
+        Plan only these surface classes (roof, facade, ...).
+    pose_margin : {"field", "none"}
+        "field" judges frames and pair angles with the drone's own pose error (margin.py);
+        "none" with the rules as given.
+    """
+
+    gsd: float
+    security: float
+    rule: str = "sfm"
+    min_views: int | None = None
+    min_triangulation_deg: float = 5.0
+    match: MatchRule | None = None
+    max_incidence_deg: float = 70.0
+    min_altitude: float | None = None
+    spacing: float | None = None
+    gimbal_pitch_range_deg: tuple | None = None
+    cost_weight: float = 1.0
+    max_flight_min: float | None = None
+    lattice_spacing_m: float | None = None
+    lp_time_limit: float = 20.0
+    max_memory: float | None = None
+    surface_classes: tuple | None = field(default=None)
+    pose_margin: str = "field"
+
+    def __post_init__(self):
+        def put(name, value):
+            object.__setattr__(self, name, value)
+
+        put("gsd", check_positive("gsd", self.gsd))
+        put("security", check_positive("security distance", self.security))
+        if self.rule not in RULES:
+            raise ParameterError(f"rule must be one of {', '.join(RULES)}, got {self.rule!r}")
+        if self.pose_margin not in MARGINS:
+            raise ParameterError(f"pose margin must be one of {', '.join(MARGINS)}, got {self.pose_margin!r}")
+        min_views = (3 if self.rule == "sfm" else 2) if self.min_views is None else self.min_views
+        if int(min_views) != min_views or min_views < 1:
+            raise ParameterError(f"min views must be a whole number >= 1, got {min_views!r}")
+        put("min_views", int(min_views))
+        put("match", (self.match or MatchRule()) if self.rule == "sfm" else None)
+        if not 0 <= float(self.min_triangulation_deg) < 90:
+            raise ParameterError(f"min triangulation angle must be in [0, 90) degrees, got {self.min_triangulation_deg!r}")
+        if self.match and not float(self.min_triangulation_deg) < self.match.max_pair_deg:
+            raise ParameterError(f"min triangulation angle {self.min_triangulation_deg:g} deg must be below the widest "
+                                 f"matchable pair {self.match.max_pair_deg:g} deg")
+        if not 0 < float(self.max_incidence_deg) < 90:
+            raise ParameterError(f"max incidence must be in (0, 90) degrees, got {self.max_incidence_deg!r}")
+        if self.min_altitude is not None and not np.isfinite(self.min_altitude):
+            raise ParameterError(f"min altitude must be a finite number, got {self.min_altitude!r}")
+        if self.spacing is not None:
+            put("spacing", check_positive("spacing", self.spacing))
+        if self.max_flight_min is not None:
+            put("max_flight_min", check_positive("max flight minutes", self.max_flight_min))
+        if self.surface_classes is not None:
+            put("surface_classes", tuple(self.surface_classes))
+
+    @property
+    def floor(self) -> float:
+        """The minimum altitude the plan keeps above the ground, m."""
+        return self.security if self.min_altitude is None else float(self.min_altitude)
+
+
+def safety_margin(security: float) -> float:
+    """Extra clearance the planner keeps beyond the security distance."""
+    return max(0.05, 0.02 * security)
+
+
+def optimal_distance(camera: Camera, settings: PlanSettings) -> float:
+    """``d_opt`` of the GSD asked, refused when it lies inside the security distance."""
+    d_opt = camera.optimal_distance(settings.gsd)
+    need = settings.security + safety_margin(settings.security)
+    if d_opt <= need * 1.05:
+        finest = need * 1.05 * camera.pixel_pitch_mm / camera.focal_length_mm
+        raise PlanningError(
+            f"GSD {settings.gsd:g} m/px needs shots within {d_opt:.2f} m of the surface, but the security "
+            f"distance is {settings.security:g} m; the finest GSD possible with this camera and security "
+            f"distance is about {finest:.4g} m/px")
+    return d_opt
+
+
+def gimbal_range(given, drone) -> tuple[float, float]:
+    """The gimbal pitch range to plan with: the one given, else the drone's, else -90..30."""
+    rng = given if given is not None else (drone.gimbal_pitch_deg if drone is not None else (-90.0, 30.0))
+    lo, hi = (float(v) for v in rng)
+    if not -90.0 <= lo <= hi <= 90.0:
+        raise ParameterError(f"gimbal pitch range must lie in [-90, 90] with min <= max, got {tuple(rng)}")
+    if given is not None and drone is not None:
+        d_lo, d_hi = drone.gimbal_pitch_deg
+        if lo < d_lo or hi > d_hi:
+            raise ParameterError(f"gimbal pitch range {lo:g}..{hi:g} deg is beyond the {drone.label}'s "
+                                 f"{d_lo:g}..{d_hi:g} deg")
+    return lo, hi
+
+
+# Bytes per item, measured on the 3.2-million-triangle benchmark mesh and sample scenes
+# (peak resident memory over the counts), rounded up.
+BYTES_PER_TRIANGLE = 1400
+BYTES_PER_SAMPLE = 3000
+BYTES_PER_VIEW_PAIR = 160
+BYTES_PER_CANDIDATE = 400
+
+
+def physical_memory() -> float:
+    """Bytes of RAM on this machine (sysconf), or 8 GB where it cannot be read."""
+    try:
+        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):
+        return 8e9
+
+
+def memory_estimate(scene, camera: Camera, spacing: float, distance: float) -> dict:
+    """Rough peak memory of a plan, from triangles, samples and expected visibility pairs."""
+    triangles = sum(len(p.mesh.faces) for p in scene.parts)
+    area = sum(p.mesh.area for p in scene.targets)
+    samples = area / spacing ** 2
+    width, height = camera.footprint(distance)
+    candidates = 12.0 * area / max(width * height, spacing ** 2) + 500.0
+    per_view = min(samples, width * height / spacing ** 2)
+    pairs = candidates * per_view * 0.6
+    total = (triangles * BYTES_PER_TRIANGLE + samples * BYTES_PER_SAMPLE + pairs * BYTES_PER_VIEW_PAIR
+             + candidates * BYTES_PER_CANDIDATE + 3e8)
+    return {"bytes": total, "triangles": triangles, "samples": samples, "candidates": candidates, "pairs": pairs}
+
+
+def check_size(scene, camera: Camera, spacing: float, distance: float, max_memory: float | None) -> dict:
+    """Refuse, before any heavy work, a plan that would not fit in memory."""
+    limit = 0.8 * physical_memory() if max_memory is None else float(max_memory)
+    est = memory_estimate(scene, camera, spacing, distance)
+    if est["bytes"] > limit:
+        raise PlanningError(
+            f"this plan needs about {est['bytes'] / 1e9:.1f} GB ({est['triangles']:,} triangles, "
+            f"~{est['samples']:,.0f} surface samples at {spacing:.3g} m, ~{est['pairs']:,.0f} view pairs) but "
+            f"the limit is {limit / 1e9:.1f} GB; use a coarser --spacing or GSD, or raise --max-memory-gb")
+    return est

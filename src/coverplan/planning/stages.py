@@ -1,0 +1,594 @@
+"""The stages of :func:`coverplan.plan`, each taking the results of the ones before it.
+
+setup -> problem (samples, reachability, candidates, visibility) -> selection (covering,
+sharp views, links) -> closing the gaps (fine check, repair, redundancy, relinking) ->
+flight (lattice, Dijkstra, tour, legs, battery split) -> route.
+"""
+
+from __future__ import annotations
+
+from concurrent.futures import Executor, Future
+from dataclasses import dataclass, replace
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from coverplan.equipment.camera import Camera
+from coverplan.equipment.drones import DroneProfile, security_shortfall
+from coverplan.equipment.flighttime import FlightModel
+from coverplan.equipment.margin import NO_MARGIN, PoseMargin, margin_for, tightened
+from coverplan.errors import ParameterError, PlanningError
+from coverplan.flight.battery import (
+    Stops,
+    flight_table,
+    split_flights,
+    transit_headings,
+    waypoint_times,
+)
+from coverplan.flight.pathing import (
+    FlightGraph,
+    build_flight_graph,
+    build_lattice,
+    closure_hops,
+    lattice_box,
+    lattice_spacing,
+    leg,
+    shortcut,
+    shot_distances,
+)
+from coverplan.flight.route import Route, polyline_length
+from coverplan.flight.start import check_start, default_start
+from coverplan.flight.tour import solve_tour
+from coverplan.planning.settings import (
+    PlanSettings,
+    check_size,
+    gimbal_range,
+    optimal_distance,
+    safety_margin,
+)
+from coverplan.progress import Progress
+from coverplan.shots.candidates import (
+    Candidates,
+    along_normals,
+    facade_rings,
+    from_probes,
+    keep_safe,
+    standoff,
+    under_overhangs,
+)
+from coverplan.shots.reachability import (
+    Reachability,
+    ViewLimits,
+    reachability,
+    scene_limits,
+)
+from coverplan.shots.reconstructability import (
+    SHARP_INCIDENCE_DEG,
+    MatchRule,
+    add_sharp_views,
+    best_incidence,
+    candidate_links,
+    connect_shots,
+    extend_links,
+    incidence_deg,
+    sharp_view_matrix,
+    shot_links,
+)
+from coverplan.shots.redundancy import CheckViews, SharpViews, drop_redundant
+from coverplan.shots.relink import relink_on_check
+from coverplan.shots.repair import (
+    MAX_ROUNDS,
+    TARGET_PCT,
+    CoverProblem,
+    GapCloser,
+    check_samples,
+    planner_check_spacing,
+)
+from coverplan.shots.selection import select_views
+from coverplan.shots.surface import SurfaceSamples, default_spacing, sample_surface
+from coverplan.shots.visibility import pair_stats, view_rays
+
+MAX_LATTICE_NODES = 150_000
+
+
+@dataclass(frozen=True)
+class Setup:
+    """The settings resolved against the scene, camera and drone: what every stage works with.
+
+    ``camera``, ``match`` and ``min_triangulation_deg`` are the ones the rules are judged with
+    (narrowed by the pose margin); ``asked`` keeps the settings as given for the route.
+    """
+
+    asked: PlanSettings
+    asked_camera: Camera
+    camera: Camera
+    limits: ViewLimits
+    pose: PoseMargin
+    match: MatchRule | None
+    min_triangulation_deg: float
+    d_opt: float
+    extra_clearance: float  # beyond the security distance (safety_margin)
+    spacing: float
+    standoff: float
+    start: np.ndarray  # (3,)
+    flight_model: FlightModel
+    max_flight_min: float | None
+    drone: DroneProfile | None
+    notes: tuple
+
+    @property
+    def max_pair_deg(self) -> float | None:
+        return self.match.max_pair_deg if self.match else None
+
+
+def resolve(scene, camera: Camera, settings: PlanSettings, drone: DroneProfile | None = None,
+            flight_model: FlightModel | None = None, start=None) -> Setup:
+    """Check the settings against the camera and scene; the pose margin, limits and start point."""
+    d_opt = optimal_distance(camera, settings)
+    pitch_range = gimbal_range(settings.gimbal_pitch_range_deg, drone)
+    model = flight_model or (drone.flight_model() if drone is not None else FlightModel())
+    max_flight_min = settings.max_flight_min
+    if max_flight_min is None and drone is not None:
+        max_flight_min = drone.usable_flight_min
+    limits = scene_limits(scene, security=settings.security, d_opt=d_opt, max_incidence_deg=settings.max_incidence_deg,
+                          min_altitude=settings.floor, pitch_range_deg=pitch_range, vfov_deg=camera.vfov_deg)
+    extra = safety_margin(settings.security)
+    # The rules judged with the drone's pose error: a narrower frame, narrower pair angles.
+    asked_camera, match, min_tri = camera, settings.match, float(settings.min_triangulation_deg)
+    pose = margin_for(settings.pose_margin, drone, standoff(camera, limits, extra))
+    if pose != NO_MARGIN:
+        camera = pose.camera(camera)
+        match, min_tri = tightened(match, min_tri, pose)
+        if match and not min_tri < match.max_pair_deg:
+            raise ParameterError(f"with the pose margin the narrowest triangulating pair ({min_tri:.1f} "
+                                 f"deg) is not below the widest matchable one ({match.max_pair_deg:.1f} deg); "
+                                 "widen --max-pair-deg or use --margin none")
+        limits = replace(limits, vfov_deg=camera.vfov_deg)
+    spacing = default_spacing(scene, d_opt) if settings.spacing is None else settings.spacing
+    distance = standoff(camera, limits, extra)
+    check_size(scene, camera, spacing, distance, settings.max_memory)
+    notes = []
+    if start is None:
+        start = default_start(scene, limits, extra)
+    else:
+        start, notes = check_start(scene, start, limits)
+    return Setup(settings, asked_camera, camera, limits, pose, match, min_tri, d_opt, extra, spacing, distance,
+                 start, model, max_flight_min, drone, tuple(notes))
+
+
+@dataclass(frozen=True)
+class Problem:
+    """Samples, where they can be seen from, the candidates and which candidate sees which sample.
+
+    The futures are work started on the other core for later stages: the check samples, the
+    candidates' link graph and the flight graph's lattice (None when it depends on the shots).
+    """
+
+    samples: SurfaceSamples
+    reach: Reachability
+    cover: CoverProblem
+    vis: object  # (candidates, samples) sparse visibility
+    rays: np.ndarray
+    fine_job: Future
+    links_job: Future | None
+    lattice_job: Future | None
+
+
+def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Problem:
+    """Surface samples, reachability, candidate viewpoints and the visibility matrix."""
+    settings, limits, camera = setup.asked, setup.limits, setup.camera
+    classes = settings.surface_classes
+    # The check samples depend on the target alone: drawn on another core meanwhile (Embree
+    # and HiGHS release the GIL), they are ready when the repair needs them.
+    fine_job = pool.submit(check_samples, scene, planner_check_spacing(scene, setup.spacing), classes)
+    with progress.stage("surface samples"):
+        samples = sample_surface(scene, setup.spacing)
+        if classes:
+            samples = samples.of_classes(classes)
+            if len(samples) == 0:
+                raise PlanningError(f"the target has no {' or '.join(classes)} surface")
+    with progress.stage("reachability"):
+        reach = reachability(scene, samples, limits)
+    with progress.stage("candidate viewpoints"):
+        cands = facade_rings(scene, camera, limits, setup.standoff, setup.spacing).concat(
+            along_normals(samples, limits, camera, setup.standoff)).concat(
+            under_overhangs(samples, limits, camera, setup.extra_clearance))
+        cands = keep_safe(scene, cands, limits, setup.extra_clearance)
+
+    cover = CoverProblem(scene, camera, limits, samples, cands)
+    with progress.stage("visibility matrix", total=len(cands), unit="cam") as update:
+        cover.pairs = cover.pairs_between(cands, samples, progress=update)
+        # Samples the structured candidates leave short get candidates from their own probes
+        # (judged without the margin: they serve samples only grazing views reach).
+        needy = _short_samples(cover.pairs, cands.positions, samples, settings.min_views, setup.min_triangulation_deg,
+                               setup.max_pair_deg) & reach.reachable
+        cover.add_candidates(keep_safe(scene, from_probes(scene, samples, np.flatnonzero(needy), limits),
+                                       limits, setup.extra_clearance))
+    vis, rays = cover.matrices()
+    reach = reach.with_witnesses(np.bincount(cover.pairs[1], minlength=len(samples)) > 0)
+    # The candidates' link graph depends on vis alone: built on the other core while HiGHS
+    # (which releases the GIL) solves the selection's LP, it is ready when linking starts.
+    links_job = pool.submit(candidate_links, vis, cover.cands.positions, samples.points,
+                            setup.match) if setup.match is not None else None
+    # So is the flight graph's lattice when its spacing cannot depend on which shots are chosen
+    # (build_flight_graph checks that the shots ask for this very lattice, or builds another).
+    h = _lattice_spacing(scene, cover.cands.positions, setup)
+    lattice_job = None
+    if h == _lattice_spacing(scene, np.zeros((0, 3)), setup):
+        lattice_job = pool.submit(build_lattice, scene, limits, lattice_box(scene, limits, np.zeros((0, 3)), h),
+                                  setup.start, margin=setup.extra_clearance, spacing=h)
+    return Problem(samples, reach, cover, vis, rays, fine_job, links_job, lattice_job)
+
+
+@dataclass(frozen=True)
+class Selection:
+    """The shots chosen on the planner's samples and how many each step added."""
+
+    chosen: np.ndarray  # (k,) int candidate indices
+    covering: int
+    sharpening: int
+    lp_bound: float | None
+
+
+def select_shots(problem: Problem, setup: Setup, progress: Progress) -> Selection:
+    """View selection (covering LP), then sharp views and links for SfM."""
+    settings, match = setup.asked, setup.match
+    with progress.stage("view selection", unit="shot") as update:
+        selection = select_views(problem.vis, problem.rays, settings.min_views, setup.min_triangulation_deg,
+                                 lp_time_limit=settings.lp_time_limit, progress=update, max_pair_deg=setup.max_pair_deg)
+    chosen = selection.chosen
+    covering = len(chosen)
+    samples, cands = problem.samples, problem.cover.cands
+    if match is not None and match.sharp_views and len(chosen):
+        with progress.stage("sharp views for SfM"):
+            cam, pt, _ = problem.cover.pairs
+            inc = incidence_deg(cam, pt, cands.positions, samples.points, samples.normals)
+            chosen = add_sharp_views(cam, pt, inc, len(cands), samples.area, chosen, views=match.sharp_views)
+    sharpening = len(chosen) - covering
+    if match is not None and len(chosen):
+        with progress.stage("linking shots for SfM"):
+            chosen = connect_shots(problem.vis, cands.positions, samples.points, chosen, match,
+                                   links=problem.links_job.result())
+    if len(chosen) == 0:
+        reason = problem.reach.reason
+        raise PlanningError("no safe viewpoint can image any part of the target: "
+                            + (reason[0] if len(reason) and reason[0] else "check the security distance and GSD"))
+    return Selection(chosen, covering, sharpening, selection.lp_bound)
+
+
+@dataclass(frozen=True)
+class ClosedGaps:
+    """The shots after the fine check: repaired, sharpened, thinned and relinked.
+
+    ``cover`` is the problem grown by the repair's candidates and the check samples.
+    """
+
+    cover: CoverProblem
+    chosen: np.ndarray  # (k,) int candidate indices into cover.cands
+    check: object  # repair.Check of ``chosen``
+    closer: GapCloser
+    history: list
+    fine_sharp: int
+    complete: int
+    dropped: int
+    check_links: int
+
+
+def close_gaps(problem: Problem, selection: Selection, setup: Setup, progress: Progress) -> ClosedGaps:
+    """Judge the shots on the check samples; add shots where they fall short, drop the
+    redundant ones, link what the check's samples ask."""
+    settings, match, d_opt = setup.asked, setup.match, setup.d_opt
+    samples, coarse = problem.samples, len(problem.samples)
+    cover = replace(problem.cover)  # the repair grows its own copy of the problem
+    chosen, vis = selection.chosen, problem.vis
+    known = problem.links_job.result() if problem.links_job is not None else None
+    with progress.stage("fine check and repair"):
+        closer = GapCloser(cover, settings.min_views, setup.min_triangulation_deg, setup.max_pair_deg, setup.standoff,
+                           setup.extra_clearance, problem.fine_job.result())
+        check = closer.check(chosen)
+        history = [check.coverage_pct]
+        while check.coverage_pct < TARGET_PCT and len(history) <= MAX_ROUNDS and closer.extend(check):
+            vis, rays = cover.matrices()
+            before = len(chosen)
+            chosen = select_views(vis, rays, settings.min_views, setup.min_triangulation_deg, lp_time_limit=0,
+                                  max_pair_deg=setup.max_pair_deg, preset=chosen).chosen
+            if match is not None:
+                # Links are judged on the planner's own samples: the check samples crowd a few
+                # strips that hundreds of candidates see, which makes the pair products explode.
+                chosen = _link_new_shots(vis[:, :coarse], cover.cands.positions, samples.points, chosen,
+                                         before, match, 0.5 * d_opt, known=known)
+            check = closer.check(chosen)
+            history.append(check.coverage_pct)
+        fine_sharp = 0
+        if match is not None and match.sharp_views:
+            before = len(chosen)
+            chosen = closer.sharpen(chosen, match.sharp_views)
+            if len(chosen) > before:  # sharpen leaves the problem as it was: vis still holds
+                chosen = _link_new_shots(vis[:, :coarse], cover.cands.positions, samples.points, chosen,
+                                         before, match, 0.5 * d_opt, known=known)
+                fine_sharp = len(chosen) - before
+                check = closer.check(chosen)
+        complete = len(chosen)
+        if match is not None:
+            chosen = _drop_redundant(cover, closer, chosen, check.covered, coarse, vis, match)
+            check = closer.kept(check, chosen)
+        dropped = complete - len(chosen)
+        check_links = 0
+        if match is not None:
+            kept = len(chosen)
+            chosen = relink_on_check(cover, closer, chosen, match, vis[:, :coarse])
+            check_links = len(chosen) - kept
+            if check_links:
+                check = closer.check(chosen)
+    return ClosedGaps(cover, chosen, check, closer, history, fine_sharp, complete, dropped, check_links)
+
+
+@dataclass(frozen=True)
+class Flight:
+    """The tour flown: waypoints per battery flight, the shots they photograph from, and what
+    stays uncovered (shots no safe path reaches dropped)."""
+
+    flights: list  # per battery flight: [(position (3,), special index or -1), ...]
+    shots: Candidates
+    chosen: np.ndarray
+    check: object
+    uncovered: list
+    lattice_spacing_m: float
+    single_flight_s: float
+    single_flight_path_m: float
+
+
+def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progress) -> Flight:
+    """Flight graph (lattice + Dijkstra), tour, legs and the battery split."""
+    limits, settings, extra = setup.limits, setup.asked, setup.extra_clearance
+    closer, chosen, check = gaps.closer, gaps.chosen, gaps.check
+    cands = gaps.cover.cands
+    shots = cands.subset(chosen)
+    with progress.stage("lattice and Dijkstra"):
+        specials = np.vstack([setup.start, shots.positions])
+        h = _lattice_spacing(scene, shots.positions, setup)
+        lattice = problem.lattice_job.result() if problem.lattice_job is not None else None
+        fg = build_flight_graph(scene, limits, specials, margin=extra, spacing=h, cost_weight=settings.cost_weight,
+                                lattice=lattice)
+        limit = 4.0 * max(setup.d_opt, 3 * h) * (1.0 + 2.0 * settings.cost_weight)
+        closure, pred, direct = shot_distances(fg, len(specials), limit)
+    flyable = np.isfinite(closure[0])
+    if not flyable[1:].any():
+        raise PlanningError("no safe path from the start point to any shot; move the start point")
+    if not flyable.all():
+        # Shots the start cannot reach (a pocket no safe path enters): drop them, and say what
+        # their samples lose.
+        chosen = chosen[flyable[1:]]
+        check = closer.check(chosen)
+        shots = cands.subset(chosen)
+        specials = np.vstack([setup.start, shots.positions])
+        fg = build_flight_graph(scene, limits, specials, margin=extra, spacing=h, cost_weight=settings.cost_weight,
+                                lattice=lattice)
+        closure, pred, direct = shot_distances(fg, len(specials), limit)
+    check = closer.edge_of_hidden(check, chosen)
+    uncovered = closer.uncovered(check, lost_path=not flyable.all())
+    with progress.stage("tour"):
+        order = solve_tour(closure)
+    stops = Stops(np.concatenate([[0.0], shots.heading_deg]), np.concatenate([[0.0], shots.pitch_deg]),
+                  float(setup.start[2] - limits.ground_at(setup.start[None, :2])[0]))
+
+    def fly_order(o):
+        return _legs(fg, o, pred, direct, scene, limits, extra)
+
+    with progress.stage("legs"):
+        flights = [fly_order(order)]
+    single_s = waypoint_times(setup.flight_model, flights[0], stops)["total_s"]
+    single_path = polyline_length([p for p, _ in flights[0]])
+    if setup.max_flight_min is not None and single_s > 60.0 * setup.max_flight_min:
+        with progress.stage("battery flights"):
+            flights = split_flights(fg, order, closure, fly_order, setup.flight_model, stops,
+                                    60.0 * setup.max_flight_min, scene.clearance_model(limits.security),
+                                    limits.security + extra, floor=limits.segments_above_floor)
+    return Flight(flights, shots, chosen, check, uncovered, h, single_s, single_path)
+
+
+def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps: ClosedGaps, flight: Flight,
+               stage_seconds: dict, planning_time_s: float) -> Route:
+    """The Route: waypoints, the settings as asked, notes and the plan's metrics; checked once
+    more for safety before it is handed out."""
+    settings, limits = setup.asked, setup.limits
+    route = _route(flight.flights, flight.shots, setup.asked_camera, scene, limits, settings, setup.spacing,
+                   flight.uncovered)
+    match = settings.match
+    params = route.params
+    params["pose_margin"] = dict(setup.pose.to_dict(), kind=settings.pose_margin)
+    if setup.drone is not None:
+        params["drone"] = setup.drone.name
+    notes = list(setup.notes)
+    lost = len(gaps.chosen) - len(flight.chosen)
+    if lost:
+        notes.append(f"{lost} shots have no safe path from the start and were dropped")
+    shortfall = security_shortfall(settings.security, setup.drone)
+    if shortfall:
+        notes.append(f"WARNING {shortfall}: a position error that large can bring the drone closer than the "
+                     "security distance")
+    if setup.max_flight_min is not None:
+        params["max_flight_min"] = setup.max_flight_min
+    if settings.surface_classes:
+        params["surface_classes"] = list(settings.surface_classes)
+    params["rule"] = settings.rule
+    if match is not None:
+        params.update({"max_pair_deg": match.max_pair_deg, "min_overlap": match.min_overlap,
+                       "min_neighbours": match.min_neighbours, "sharp_views": match.sharp_views})
+    _final_check(route, scene, limits)
+
+    check, chosen = flight.check, flight.chosen
+    fine = check.samples
+    picked = len(selection.chosen)
+    route.metrics = {
+        "shots": int(route.shot.sum()),
+        "selected_views": int(len(chosen)),
+        "sharp_view_shots": int(selection.sharpening + gaps.fine_sharp),
+        "linking_shots": int(max(picked - selection.covering - selection.sharpening, 0) + gaps.check_links),
+        "repair_shots": int(max(gaps.complete - picked - gaps.fine_sharp, 0)),
+        "redundant_shots_dropped": int(gaps.dropped),
+        "check_link_shots": int(gaps.check_links),  # of the linking shots: those the check samples' links asked
+        "repair_rounds": len(gaps.history) - 1,
+        "check_coverage_history_pct": gaps.history,
+        "path_length_m": route.path_length,
+        "planned_coverage_pct": check.coverage_pct,
+        "check_spacing_m": fine.spacing,
+        "reachable_area_m2": float(fine.area[check.reachable].sum()),
+        "surface_area_m2": fine.total_area,
+        "planning_time_s": planning_time_s,
+        "stage_seconds": dict(stage_seconds),
+        "candidates": int(len(gaps.cover.cands)),
+        "samples": int(len(problem.samples)),
+        "standoff_m": setup.standoff,
+        "d_opt_m": setup.d_opt,
+        "lattice_spacing_m": flight.lattice_spacing_m,
+        "orbit_length_m": _orbit_length(scene, setup.standoff),
+        "flight_model": setup.flight_model.to_dict(),
+        "flights": flight_table(route, setup.flight_model, setup.max_flight_min),
+        "single_flight_path_m": flight.single_flight_path_m,
+        "single_flight_min": flight.single_flight_s / 60.0,
+    }
+    if selection.lp_bound is not None:
+        route.metrics["lp_lower_bound_shots"] = selection.lp_bound
+    route.extra = {"notes": notes + list(scene.notes), "target_outline": _outline(scene)}
+    return route
+
+
+def _lattice_spacing(scene, shots: np.ndarray, setup: Setup) -> float:
+    """The flight graph's lattice spacing: the one asked, or one that keeps the lattice over the
+    target and its shots within MAX_LATTICE_NODES."""
+    security = setup.asked.security
+    region = np.ptp(np.vstack([scene.bounds("target"), shots]), axis=0) + 2 * (setup.d_opt + security)
+    return setup.asked.lattice_spacing_m or lattice_spacing(setup.d_opt, security, float(np.prod(region)),
+                                                            MAX_LATTICE_NODES)
+
+
+def _link_new_shots(vis, positions, points, chosen, before: int, match: MatchRule, radius: float,
+                    known=None) -> np.ndarray:
+    """connect_shots after a repair round, over the chosen shots and the candidates within
+    ``radius`` of the new ones (linking over every candidate again costs seconds). ``known``:
+    the links among the first candidates (``candidate_links``), which are not worked out again."""
+    if len(chosen) == before:
+        return chosen
+    near = np.isfinite(cKDTree(positions[chosen[before:]]).query(positions, distance_upper_bound=radius)[0])
+    pool = np.union1d(chosen, np.flatnonzero(near))
+    links = None
+    if known is not None:
+        old = pool[pool < known.shape[0]]  # pool is sorted: these come first
+        links = extend_links(vis[pool], positions[pool], points, match, known[old][:, old])
+    linked = connect_shots(vis[pool], positions[pool], points, np.searchsorted(pool, chosen), match, links=links)
+    return pool[linked]
+
+
+def _drop_redundant(cover: CoverProblem, closer: GapCloser, chosen: np.ndarray, covered: np.ndarray,
+                    coarse: int, vis, match: MatchRule) -> np.ndarray:
+    """``drop_redundant`` keeping the fine check's coverage, the links between the shots and the
+    sharp views: on the planner's samples as the sharp-view stage asked them, on the check
+    samples a view as square as 35 deg or as the plan's best (docs/reconstruction.md)."""
+    n_cands = len(cover.cands)
+    who, at = closer.firm_views()
+    mine = np.isin(who, chosen)
+    who, at = who[mine], at[mine]
+    positions, fine = cover.cands.positions, closer.fine
+    views = CheckViews(who, at, view_rays(who, at, positions, fine.points), covered,
+                       closer.min_views, closer.min_triangulation_deg, closer.max_pair_deg)
+    sharp = []
+    if match.sharp_views:
+        cam, pt, _ = cover.pairs
+        own = pt < coarse
+        inc = incidence_deg(cam[own], pt[own], positions, cover.samples.points, cover.samples.normals)
+        sharp.append(SharpViews(sharp_view_matrix(cam[own], pt[own], inc, n_cands, coarse), match.sharp_views))
+        inc = incidence_deg(who, at, positions, fine.points, fine.normals)
+        best = np.maximum(best_incidence(at, inc, len(fine)), SHARP_INCIDENCE_DEG)
+        sharp.append(SharpViews(sharp_view_matrix(who, at, inc, n_cands, len(fine), targets=best), match.sharp_views))
+    links = shot_links(vis[chosen][:, :coarse], positions[chosen], cover.samples.points[:coarse], match)
+    return drop_redundant(chosen, views, sharp, links, match.min_neighbours)
+
+
+def _short_samples(pairs, positions, samples, min_views, min_triangulation_deg, max_pair_deg=None) -> np.ndarray:
+    cam, pt, _ = pairs
+    views = np.bincount(pt, minlength=len(samples))
+    rays = view_rays(cam, pt, positions, samples.points)
+    widest, paired = pair_stats(pt, rays, len(samples), min_triangulation_deg, max_pair_deg)
+    short = (views < min_views + 1) | (widest < min_triangulation_deg * 2)
+    return short | ~paired if max_pair_deg is not None else short
+
+
+def _legs(fg: FlightGraph, order, pred, direct, scene, limits, margin) -> list[tuple[np.ndarray, int]]:
+    """Waypoints along the tour: (position, special index or -1 for transit points)."""
+    clearance = scene.clearance_model(limits.security)
+    radius = limits.security + margin
+    stops = list(order) + [0]
+    out: list[tuple[np.ndarray, int]] = [(fg.points[fg.special(0)], 0)]
+    for u, v in zip(stops[:-1], stops[1:]):
+        hops = closure_hops(pred, u, v)
+        nodes = [fg.special(hops[0])]
+        for x, y in zip(hops[:-1], hops[1:]):
+            nodes.extend(leg(fg, fg.special(x), fg.special(y), direct[x, y])[1:])
+        pts = fg.points[np.array(nodes)]
+        keep = shortcut(pts, clearance, radius, floor=limits.segments_above_floor)
+        for k in keep[1:-1]:
+            out.append((pts[k], -1))
+        out.append((pts[-1], v))
+    return out
+
+
+def _route(flights, shots, camera, scene, limits, settings: PlanSettings, spacing: float, uncovered) -> Route:
+    waypoints = [w for flight in flights for w in flight]
+    flight = np.concatenate([np.full(len(f), k) for k, f in enumerate(flights, start=1)])
+    pos = np.array([p for p, _ in waypoints])
+    special = np.array([s for _, s in waypoints])
+    n = len(pos)
+    is_shot = special > 0
+    heading = np.zeros(n)
+    pitch = np.zeros(n)
+    shot_idx = special[is_shot] - 1
+    heading[is_shot] = shots.heading_deg[shot_idx]
+    pitch[is_shot] = shots.pitch_deg[shot_idx]
+    heading = transit_headings(pos, is_shot, heading)
+    legs = []
+    for k in range(1, len(flights) + 1):  # initial / coverage / final within each flight
+        rows = np.flatnonzero(flight == k)
+        shot_rows = rows[is_shot[rows]]
+        first, final = shot_rows[0], shot_rows[-1]
+        legs += ["initial" if r < first else "final" if r > final else "coverage" for r in rows]
+    params = {"gsd_m": settings.gsd, "security_m": settings.security, "min_views": settings.min_views,
+              "min_triangulation_deg": float(settings.min_triangulation_deg),
+              "max_incidence_deg": settings.max_incidence_deg, "min_altitude_m": settings.floor,
+              "ground_z_m": scene.ground_z, "gimbal_pitch_range_deg": list(limits.pitch_range_deg),
+              "sample_spacing_m": spacing}
+    ground = None
+    if scene.terrain is not None:
+        ground = scene.terrain.height(pos[:, :2])
+        params["terrain"] = scene.terrain.source
+    return Route(pos, is_shot, heading, pitch, legs, camera, params, frame=scene.frame, uncovered=uncovered,
+                 flight=flight, ground_z=ground)
+
+
+def _final_check(route: Route, scene, limits: ViewLimits) -> None:
+    """Never hand out an unsafe route: every segment and waypoint checked once more."""
+    clearance = scene.clearance_model(limits.security)
+    p = route.positions
+    ok = clearance.segments_clear(p[:-1], p[1:], limits.security) if len(p) > 1 else np.array([True])
+    low = ~limits.above_floor(p)
+    if len(p) > 1:
+        low[1:] |= ~limits.segments_above_floor(p[:-1], p[1:])
+    if not ok.all() or low.any():
+        raise RuntimeError(f"internal error: planned route breaks the security distance on "
+                           f"{int((~ok).sum())} segments / altitude at {int(low.sum())} waypoints or segments")
+
+
+def _outline(scene) -> list:
+    """The target's footprint (convex hull, local x y) at ground height, for maps."""
+    from shapely.geometry import MultiPoint
+    pts = np.vstack([p.mesh.vertices[:, :2] for p in scene.targets])
+    hull = MultiPoint(pts).convex_hull
+    coords = np.asarray(hull.exterior.coords) if hull.geom_type == "Polygon" else pts[:1]
+    return [[round(float(x), 4), round(float(y), 4), float(scene.ground_z)] for x, y in coords]
+
+
+def _orbit_length(scene, distance: float) -> float:
+    """Length of one horizontal orbit at the standoff around the target's footprint."""
+    from shapely.geometry import MultiPoint
+    pts = np.vstack([p.mesh.vertices[:, :2] for p in scene.targets])
+    return float(MultiPoint(pts).convex_hull.buffer(distance).exterior.length)

@@ -1,0 +1,337 @@
+"""simulate(): render a route's photos on the scene, run SfM on them, and say what came back.
+
+The judge of a plan is a reconstruction (DESIGN.md): photos registered in the largest model,
+number of models, 3D points, reprojection and camera-centre errors, and the share of the
+target surface with a 3D point within 0.1 m and 0.2 m, overall and per surface class.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from coverplan.errors import InputFileError, ParameterError
+from coverplan.progress import Progress
+from coverplan.sfm.colmap import (
+    SPATIAL_NEIGHBOURS,
+    check_matching,
+    covisible_pairs,
+    require_pycolmap,
+    run_sfm,
+)
+from coverplan.sfm.conditions import Conditions, fly, get_conditions
+from coverplan.sfm.judge import judge_samples, reconstructed_surface
+from coverplan.sfm.render import (
+    FieldRenderer,
+    PhotoCamera,
+    PhotoRenderer,
+    check_texture,
+)
+
+DEFAULT_WIDTH_PX = 1024
+JUDGE_SPACING_M = 0.1
+PAIRS_PER_PHOTO = 60  # matched per photo in flights too large for exhaustive matching (30 split fig411)
+# Reconstructable (DESIGN.md): one model holding >= 98 % of the photos, >= 95 % of the
+# surface within 0.2 m of a 3D point and >= 90 % in every class.
+REGISTERED_MIN = 0.98
+SURFACE_MIN = 95.0
+CLASS_MIN = 90.0
+
+
+@dataclass
+class Simulation:
+    """What SfM made of a route's photos."""
+
+    photos: int
+    registered: int  # in the largest model
+    registered_any: int  # in any model
+    models: int
+    points: int  # 3D points of the largest model
+    reprojection_error_px: float
+    centre_error_m: dict  # median / max camera-centre error of the largest model after alignment
+    surface: dict  # reconstructed_surface() of the largest model, without per-sample arrays
+    photo_width_px: int
+    seconds: dict
+    shot_registered: np.ndarray = field(repr=False)  # per shot (route order): in the largest model
+    sample_points: np.ndarray = field(repr=False)  # judge samples
+    sample_distance: np.ndarray = field(repr=False)  # nearest 3D point per judge sample
+    model_points: np.ndarray = field(repr=False)
+    conditions: str = "ideal"
+    texture: str = "ideal"
+    flown_offset_m: dict = field(default_factory=lambda: {"median": 0.0, "max": 0.0})  # photo vs plan
+    draws: list = field(default_factory=list)  # every draw's summary(), worst included
+    worst_draw: int = 0
+
+    @property
+    def least_class(self) -> tuple[str, float]:
+        """The surface class with area that is least rebuilt at 0.2 m, and its %."""
+        by = self.surface["by_radius"]["0.2"]["by_class_pct"]
+        areas = self.surface["class_area_m2"]
+        live = {c: v for c, v in by.items() if areas.get(c, 0) > 0}
+        if not live:
+            return "", float("nan")
+        c = min(live, key=live.get)
+        return c, float(live[c])
+
+    @property
+    def severity(self) -> tuple:
+        """Sort key, smallest = worst: failed first, then fewest photos in the model, least surface."""
+        return (self.reconstructable, self.registered / max(self.photos, 1), self.reconstructed_pct,
+                self.least_class[1])
+
+    def summary(self) -> dict:
+        """One draw in a few numbers (for the draws table and reports)."""
+        by = self.surface["by_radius"]["0.2"]
+        c, v = self.least_class
+        return {"photos": self.photos, "registered": self.registered, "models": self.models,
+                "surface_0.2_pct": by["pct"], "surface_0.1_pct": self.surface["by_radius"]["0.1"]["pct"],
+                "by_class_pct": dict(by["by_class_pct"]), "least_class": c, "least_class_pct": v,
+                "reconstructable": self.reconstructable, "flown_offset_m": self.flown_offset_m}
+
+    @property
+    def reconstructed_pct(self) -> float:
+        return self.surface["by_radius"]["0.2"]["pct"]
+
+    @property
+    def reconstructable(self) -> bool:
+        by = self.surface["by_radius"]["0.2"]
+        return (self.registered >= REGISTERED_MIN * self.photos and by["pct"] >= SURFACE_MIN
+                and all(v >= CLASS_MIN for c, v in by["by_class_pct"].items()
+                        if self.surface["class_area_m2"].get(c, 0) > 0))
+
+    def to_dict(self) -> dict:
+        return {"photos": self.photos, "registered": self.registered, "registered_any": self.registered_any,
+                "models": self.models, "points": self.points,
+                "reprojection_error_px": self.reprojection_error_px, "centre_error_m": self.centre_error_m,
+                "surface": self.surface, "photo_width_px": self.photo_width_px, "seconds": self.seconds,
+                "reconstructable": self.reconstructable, "conditions": self.conditions,
+                "texture": self.texture, "flown_offset_m": self.flown_offset_m, "draws": self.draws,
+                "worst_draw": self.worst_draw,
+                "shot_registered": self.shot_registered.tolist()}
+
+    def table(self) -> str:
+        rows = self.rows()
+        w = max(len(r[0]) for r in rows)
+        text = "\n".join(f"{k:<{w}}  {v}" for k, v in rows)
+        return text + ("\n\n" + self.draws_table() if len(self.draws) > 1 else "")
+
+    def rows(self) -> list[tuple[str, str]]:
+        """The verdict as (label, value) rows: the conditions, then the worst draw's figures."""
+        by02, by01 = self.surface["by_radius"]["0.2"], self.surface["by_radius"]["0.1"]
+        rows = [("photos", f"{self.photos}"),
+                ("registered (largest model)", f"{self.registered} ({100.0 * self.registered / max(self.photos, 1):.1f} %)"),
+                ("registered in any model", f"{self.registered_any}"),
+                ("models", f"{self.models}"),
+                ("3D points", f"{self.points:,}"),
+                ("reprojection error", f"{self.reprojection_error_px:.2f} px"),
+                ("camera centre error", f"median {self.centre_error_m['median']:.3f} m, max {self.centre_error_m['max']:.3f} m"),
+                ("surface reconstructed @0.1 m", f"{by01['pct']:.1f} %"),
+                ("surface reconstructed @0.2 m", f"{by02['pct']:.1f} %")]
+        rows += [(f"  {c}", f"{v:.1f} % of {self.surface['class_area_m2'][c]:.0f} m2")
+                 for c, v in by02["by_class_pct"].items()]
+        rows.append(("reconstructable", "yes" if self.reconstructable else "no (DESIGN: >= 98 % registered, "
+                                                                          ">= 95 % surface, >= 90 % per class)"))
+        head = [("conditions", f"{self.conditions}" + (f", {self.texture} textures" if self.texture != "ideal" else "")
+                 + (f"; photos taken a median {self.flown_offset_m['median']:.2f} m (max "
+                    f"{self.flown_offset_m['max']:.2f} m) from the plan" if self.conditions != "ideal" else ""))]
+        if len(self.draws) > 1:
+            head.append(("draws", f"{len(self.draws)}; the verdict is the worst (draw {self.worst_draw + 1})"))
+        return head + rows
+
+    def draws_table(self) -> str:
+        """Worst and median of the draws, then each draw."""
+        def row(label, d):
+            return (label, f"{d['registered']}/{d['photos']}", f"{d['models']}", f"{d['surface_0.2_pct']:.1f} %",
+                    f"{d['least_class']} {d['least_class_pct']:.1f} %", "yes" if d["reconstructable"] else "no")
+        med = {"photos": self.photos,
+               "registered": int(np.median([d["registered"] for d in self.draws])),
+               "models": int(np.median([d["models"] for d in self.draws])),
+               "surface_0.2_pct": float(np.median([d["surface_0.2_pct"] for d in self.draws])),
+               "least_class": "", "least_class_pct": float(np.median([d["least_class_pct"] for d in self.draws])),
+               "reconstructable": sum(d["reconstructable"] for d in self.draws) * 2 > len(self.draws)}
+        rows = [("draw", "registered", "models", "surface @0.2 m", "least class", "reconstructable"),
+                row("worst", self.draws[self.worst_draw]), row("median", med)]
+        rows += [row(f"seed {d['seed']}", d) for d in self.draws]
+        widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+        return "\n".join("  ".join(c.ljust(wd) for c, wd in zip(r, widths)).rstrip() for r in rows)
+
+    def reconstructed_at(self, points, radius: float = 0.2) -> np.ndarray:
+        """Per point: is a 3D point of the largest model within ``radius``?"""
+        if len(self.model_points) == 0:
+            return np.zeros(len(points), dtype=bool)
+        from scipy.spatial import cKDTree
+        dist, _ = cKDTree(self.model_points).query(np.asarray(points, dtype=float), distance_upper_bound=radius)
+        return dist <= radius
+
+    def save(self, path) -> Path:
+        """Write the summary as JSON and the aligned 3D points beside it (``*.points.ply``)."""
+        import trimesh
+
+        path = Path(path)
+        path.write_text(json.dumps(self.to_dict(), indent=1))
+        if len(self.model_points):
+            trimesh.PointCloud(self.model_points).export(_points_path(path))
+        return path
+
+    @classmethod
+    def load(cls, path) -> "Simulation":
+        """A saved simulation (for reports): the summary and the aligned 3D points."""
+        import trimesh
+
+        path = Path(path)
+        try:
+            d = json.loads(path.read_text())
+            points_file = _points_path(path)
+            pts = np.asarray(trimesh.load(points_file).vertices) if points_file.exists() else np.zeros((0, 3))
+            return cls(d["photos"], d["registered"], d["registered_any"], d["models"], d["points"],
+                       d["reprojection_error_px"], d["centre_error_m"], d["surface"], d["photo_width_px"],
+                       d["seconds"], np.array(d["shot_registered"], dtype=bool), np.zeros((0, 3)), np.zeros(0), pts,
+                       conditions=d.get("conditions", "ideal"), texture=d.get("texture", "ideal"),
+                       flown_offset_m=d.get("flown_offset_m", {"median": 0.0, "max": 0.0}),
+                       draws=d.get("draws", []), worst_draw=d.get("worst_draw", 0))
+        except FileNotFoundError:
+            raise InputFileError(str(path), "no such file") from None
+        except (ValueError, KeyError, TypeError) as exc:
+            raise InputFileError(str(path), f"is not a coverplan simulation ({exc})") from None
+
+
+def _points_path(path: Path) -> Path:
+    return path.with_name(path.stem + ".points.ply")
+
+
+DEFAULT_CONDITIONS = "field"
+RENDER_THREADS = 2
+DEFAULT_DRAWS = 3
+
+
+def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, draws: int = DEFAULT_DRAWS,
+             texture: str = "noise", matching: str = "spatial", width: int = DEFAULT_WIDTH_PX, threads: int = -1, seed: int = 0,
+             exhaustive_limit: int = 80, spatial_neighbours: int = SPATIAL_NEIGHBOURS,
+             judge_spacing: float = JUDGE_SPACING_M, progress: Progress | None = None) -> Simulation:
+    """Render the route's photos as a drone would take them, reconstruct them, judge the result.
+
+    Parameters
+    ----------
+    route : Route
+    scene : Scene
+        The true scene: the photos are rendered on it and the reconstruction judged against it.
+    out_dir : path
+        Photos and COLMAP's files; with several draws, one folder ``draw-K`` each.
+    conditions : {"ideal", "field", "harsh"} or Conditions
+        ``field`` flies with the drone profile's position, heading and gimbal error in a moving
+        light (sfm/conditions.py); ``harsh`` adds plaster, brick, window grids, glass and tiles.
+    draws : int
+        Flights drawn under the conditions, seeds ``seed`` .. ``seed + draws - 1``; the returned
+        verdict is the worst draw's, with every draw's summary in ``Simulation.draws``. ``ideal``
+        is one draw whatever is asked.
+    texture : {"noise", "cells"}
+        The texture family under field or harsh conditions.
+    matching : {"spatial", "covisible"}
+        Above ``exhaustive_limit`` photos: COLMAP's spatial matcher on the photos' GNSS tags (as a
+        user would run it) with ``spatial_neighbours`` per photo, or the pairs whose rendered
+        views share most surface.
+
+    Returns
+    -------
+    Simulation
+        The worst draw.
+    """
+    require_pycolmap()
+    cond = conditions if isinstance(conditions, Conditions) else get_conditions(conditions)
+    check_texture(texture)
+    check_matching(matching)
+    draws = 1 if cond.name == "ideal" else int(draws)
+    if draws < 1:
+        raise ParameterError(f"draws must be at least 1, got {draws}")
+    if len(route.shots) < 2:
+        raise ParameterError(f"the route has {len(route.shots)} photo(s); SfM needs at least 2")
+    progress = progress or Progress()
+    out_dir = Path(out_dir)
+    folders = [out_dir] if draws == 1 else [out_dir / f"draw-{k + 1}" for k in range(draws)]
+    runs = []
+    for k, folder in enumerate(folders):
+        progress.note(f"draw {k + 1} of {draws} ({cond.name}, {texture} textures)")
+        runs.append(_simulate_once(route, scene, folder, cond, texture, matching, width, threads, seed + k,
+                                   exhaustive_limit, spatial_neighbours, judge_spacing, progress))
+    worst = min(range(draws), key=lambda k: runs[k].severity)
+    sim = runs[worst]
+    sim.draws = [dict(r.summary(), seed=seed + k, folder=str(folders[k])) for k, r in enumerate(runs)]
+    sim.worst_draw = worst
+    return sim
+
+
+def _simulate_once(route, scene, out_dir: Path, cond, texture: str, matching: str, width: int, threads: int, seed: int,
+                   exhaustive_limit: int, spatial_neighbours: int, judge_spacing: float,
+                   progress: Progress) -> Simulation:
+    images = out_dir / "images"
+    images.mkdir(parents=True, exist_ok=True)
+    shots = route.shots
+    photo = PhotoCamera.of(route.camera, width)
+    d_opt = route.d_opt
+    flown = fly(route, cond, seed=seed)
+    reach = 4.0 * d_opt + route.security
+    if cond.physical_textures:
+        renderer = FieldRenderer(scene, photo, ground_reach=reach, family=texture, facades=cond.facades, seed=seed)
+    else:
+        # Finest texture about 2.5 px wide at 80 % of d_opt (the usual standoff): visible, not aliased.
+        renderer = PhotoRenderer(scene, photo, finest_texture_m=2.5 * photo.gsd_at(0.8 * d_opt),
+                                 ground_reach=reach, seed=seed)
+    names = [f"shot_{k:04d}.png" for k in range(len(shots))]
+    t = time.perf_counter()
+    from PIL import Image  # the sfm extra
+
+    def render(k: int) -> np.ndarray:
+        if cond.light:  # each photo its own noise stream: the same photos however many threads
+            img, pts = renderer.render_flown(flown.positions[k], flown.heading_deg[k], flown.pitch_deg[k],
+                                             flown.sun[k], flown.direct[k], flown.exposure[k], flown.velocity[k],
+                                             flown.shutter_s, np.random.default_rng([seed, 0xCA3E, k]))
+        else:
+            img, pts = renderer.render_with_points(flown.positions[k], flown.heading_deg[k], flown.pitch_deg[k])
+        Image.fromarray(img).save(images / names[k])
+        return pts
+
+    # Embree and most of numpy release the GIL: two threads render nearly twice as fast.
+    with progress.stage("rendering photos", total=len(shots), unit="img") as tick, \
+            ThreadPoolExecutor(max_workers=RENDER_THREADS) as pool:
+        seen = []
+        for pts in pool.map(render, range(len(names))):
+            seen.append(pts)
+            tick(1)
+    seconds = {"render": time.perf_counter() - t}
+    centres = flown.positions  # where the photos were really taken: the judge's reference
+    pairs = covisible_pairs(seen, cell=max(0.25 * d_opt, 0.5), k=PAIRS_PER_PHOTO) \
+        if len(shots) > exhaustive_limit and matching == "covisible" else []
+    sfm = run_sfm(images, names, photo, centres, pairs, out_dir / "colmap", exhaustive_limit=exhaustive_limit,
+                  threads=threads, seed=seed, progress=progress, matching=matching, recorded_positions=flown.recorded,
+                  neighbour_distance=max(3.0 * d_opt, 10.0), neighbours=spatial_neighbours)
+    seconds.update(sfm.seconds)
+    best = sfm.largest
+    t = time.perf_counter()
+    with progress.stage("judging the reconstruction"):
+        samples = judge_samples(scene, judge_spacing)
+        pts = best.points if best is not None and best.aligned else np.zeros((0, 3))
+        surface = reconstructed_surface(samples, pts)
+    seconds["judge"] = time.perf_counter() - t
+    registered = set(best.image_names) if best is not None else set()
+    shot_registered = np.array([n in registered for n in names])
+    if best is not None and best.aligned and len(best.image_names):
+        err = np.linalg.norm(best.centres - centres[[names.index(n) for n in best.image_names]], axis=1)
+        centre_error = {"median": float(np.median(err)), "max": float(err.max())}
+    else:
+        centre_error = {"median": float("nan"), "max": float("nan")}
+    distance = surface.pop("nearest_point_m")
+    surface.pop("classes")
+    return Simulation(
+        photos=len(shots), registered=len(registered),
+        registered_any=len(set().union(*[m.image_names for m in sfm.models])) if sfm.models else 0,
+        models=len(sfm.models), points=int(len(best.points)) if best is not None else 0,
+        reprojection_error_px=best.reprojection_error_px if best is not None else float("nan"),
+        centre_error_m=centre_error, surface=surface, photo_width_px=photo.width, seconds=seconds,
+        shot_registered=shot_registered, sample_points=samples.points, sample_distance=distance,
+        model_points=pts, conditions=cond.name, texture=texture if cond.physical_textures else "ideal",
+        flown_offset_m={"median": float(np.median(flown.offset_m)), "max": float(flown.offset_m.max())})

@@ -1,0 +1,214 @@
+"""Can any safe position image a surface point? Probes in the incidence cone answer it.
+
+For each sample we try positions along directions within ``max_incidence_deg`` of its
+normal, at ranges between the security distance and d_opt. A probe works when it is above
+the minimum altitude, its line of sight to the sample is clear, the gimbal can aim at the
+sample from there, and it keeps the security distance from every mesh. A clear line of
+sight from the outer side of the surface also proves the probe is outside every mesh.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from coverplan.world.terrain import Terrain
+
+OK, LOW, GIMBAL, OCCLUDED, UNSAFE = 0, 1, 2, 3, 4
+GROUND = -2  # culprit index meaning the ground plane
+
+
+def cone_directions(half_angle_deg: float, count: int) -> np.ndarray:
+    """``count`` unit vectors spread over the cap of half-angle ``half_angle_deg`` about +z."""
+    k = np.arange(count) + 0.5
+    cos_min = np.cos(np.radians(half_angle_deg))
+    z = 1.0 - (1.0 - cos_min) * k / count
+    phi = k * np.pi * (3.0 - np.sqrt(5.0))
+    r = np.sqrt(np.maximum(1.0 - z * z, 0.0))
+    cap = np.column_stack([r * np.cos(phi), r * np.sin(phi), z])
+    return np.vstack([[0.0, 0.0, 1.0], cap])
+
+
+def tangent_frames(normals) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit tangents per normal, so (t1, t2, n) is right-handed."""
+    normals = np.asarray(normals, dtype=float)
+    helper = np.where(np.abs(normals[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
+    t1 = np.cross(helper, normals)
+    t1 /= np.linalg.norm(t1, axis=1, keepdims=True)
+    return t1, np.cross(normals, t1)
+
+
+@dataclass
+class ViewLimits:
+    """What a viewpoint must satisfy, shared by the evaluator and the planner."""
+
+    security: float
+    d_opt: float
+    max_incidence_deg: float
+    min_z: float
+    pitch_range_deg: tuple[float, float]
+    vfov_deg: float
+    ground_z: float = -np.inf
+    terrain: Terrain | None = None  # with it, min_z is the lowest floor and the floor follows the ground
+
+    @property
+    def min_altitude(self) -> float:
+        return self.min_z - self.ground_z
+
+    def ground_at(self, xy) -> np.ndarray:
+        """Ground height under each (x, y)."""
+        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+        return self.terrain.height(xy) if self.terrain is not None else np.full(len(xy), self.ground_z)
+
+    def floor_at(self, xy) -> np.ndarray:
+        """The lowest height the drone may fly at over each (x, y)."""
+        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+        return self.terrain.height(xy) + self.min_altitude if self.terrain is not None else np.full(len(xy), self.min_z)
+
+    def above_floor(self, points, tol: float = 1e-9) -> np.ndarray:
+        points = np.asarray(points, dtype=float).reshape(-1, 3)
+        return points[:, 2] >= self.floor_at(points[:, :2]) - tol
+
+    def segments_above_floor(self, starts, ends, tol: float = 1e-6) -> np.ndarray:
+        """Whether every point of each segment keeps the minimum altitude (over flat ground the
+        ends settle it; over terrain every crossing of the ground's grid is checked)."""
+        starts = np.asarray(starts, dtype=float).reshape(-1, 3)
+        ends = np.asarray(ends, dtype=float).reshape(-1, 3)
+        if self.terrain is None:
+            return (starts[:, 2] >= self.min_z - tol) & (ends[:, 2] >= self.min_z - tol)
+        return self.terrain.segments_above(starts, ends, self.min_altitude, tol)
+
+    def lowest_floor(self, lo_xy, hi_xy) -> float:
+        """The lowest the drone may fly anywhere over the box [lo_xy, hi_xy]."""
+        if self.terrain is None:
+            return self.min_z
+        return self.terrain.lowest_in(np.asarray(lo_xy)[:2], np.asarray(hi_xy)[:2]) + self.min_altitude
+
+    def elevation_ok(self, rays) -> np.ndarray:
+        """Whether the gimbal can frame a point seen along ``rays`` (point -> camera)."""
+        elevation = -np.degrees(np.arcsin(np.clip(rays[:, 2], -1, 1)))  # of the point, from the camera
+        lo, hi = self.pitch_range_deg
+        half = self.vfov_deg / 2.0
+        return (elevation >= lo - half) & (elevation <= hi + half)
+
+
+def probe_positions(points, normals, sample_index, limits: ViewLimits, directions: np.ndarray,
+                    range_fractions) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Probe positions for the given samples: (sample index, position, unit ray) per probe."""
+    sample_index = np.asarray(sample_index, dtype=np.int64)
+    t1, t2 = tangent_frames(normals[sample_index])
+    n = normals[sample_index]
+    world = (directions[None, :, 0:1] * t1[:, None] + directions[None, :, 1:2] * t2[:, None]
+             + directions[None, :, 2:3] * n[:, None])  # (S, D, 3)
+    ranges = limits.security + (limits.d_opt - limits.security) * np.asarray(range_fractions, float)
+    pos = points[sample_index][:, None, None, :] + world[:, :, None, :] * ranges[None, None, :, None]
+    rays = np.broadcast_to(world[:, :, None, :], pos.shape)
+    owner = np.broadcast_to(sample_index[:, None, None], pos.shape[:3])
+    return owner.reshape(-1), pos.reshape(-1, 3), rays.reshape(-1, 3)
+
+
+def test_probes(scene, points, normals, owner, positions, rays, limits: ViewLimits):
+    """Status per probe (OK / LOW / GIMBAL / OCCLUDED / UNSAFE) and the mesh that caused it."""
+    status = np.full(len(positions), OK, dtype=np.int8)
+    culprit = np.full(len(positions), -1, dtype=np.int64)
+    # The gimbal first: a probe the gimbal cannot aim from is GIMBAL at any altitude, so LOW
+    # means "the gimbal could, the altitude floor forbids it" and the two reasons stay apart.
+    status[~limits.elevation_ok(rays)] = GIMBAL
+    status[(status == OK) & ~limits.above_floor(positions, tol=0.0)] = LOW
+    start = points[owner] + normals[owner] * scene.epsilon * 4
+    blocked = scene.rays.segments_blocked(start, positions)
+    status[blocked] = OCCLUDED
+    underground = ~blocked & (positions[:, 2] < limits.ground_at(positions[:, :2]))  # the ground is opaque too
+    status[underground] = OCCLUDED
+    culprit[underground] = GROUND
+    live = np.flatnonzero(status == OK)
+    if len(live):
+        clearance = scene.clearance_model(limits.security)
+        safe = clearance.points_clear(positions[live], limits.security, check_inside=False)
+        status[live[~safe]] = UNSAFE
+        culprit[live[~safe]] = clearance.kd_distance(positions[live[~safe]], limits.security * 2)[1]
+    occ = np.flatnonzero(blocked)  # which mesh is in the way
+    if len(occ):
+        length = np.linalg.norm(positions[occ] - start[occ], axis=1)
+        _d, mesh, _f = scene.rays.first_hit(start[occ], positions[occ] - start[occ], max_distance=length)
+        culprit[occ] = mesh
+    return status, culprit
+
+
+def scene_limits(scene, *, security: float, d_opt: float, max_incidence_deg: float, min_altitude: float,
+                pitch_range_deg, vfov_deg: float) -> ViewLimits:
+    """The limits over this scene's ground: flat at ``scene.ground_z``, or its terrain (then
+    ``min_z`` is the lowest floor near the target and the floor follows the ground)."""
+    ground = float(scene.ground_z)
+    if scene.terrain is not None:
+        lo, hi = scene.bounds("target")
+        reach = d_opt + security
+        ground = scene.terrain.lowest_in(lo[:2] - reach, hi[:2] + reach)
+    return ViewLimits(float(security), float(d_opt), float(max_incidence_deg), ground + float(min_altitude),
+                      tuple(float(v) for v in pitch_range_deg), float(vfov_deg), ground, scene.terrain)
+
+
+@dataclass
+class Reachability:
+    reachable: np.ndarray  # bool per sample
+    reason: list  # per sample: "" when reachable, else why not
+
+    def with_witnesses(self, imaged: np.ndarray) -> "Reachability":
+        """Also reachable: samples some known safe viewpoint images (the probes only sample
+        the positions, so a real viewpoint can prove one they missed)."""
+        found = np.asarray(imaged, dtype=bool) & ~self.reachable
+        reason = [("" if f else r) for f, r in zip(found, self.reason)]
+        return Reachability(self.reachable | found, reason)
+
+
+def reachability(scene, samples, limits: ViewLimits, n_directions: int = 48,
+                 range_fractions=(0.1, 0.4, 0.7, 1.0), known=None) -> Reachability:
+    """Which samples some safe position within d_opt can image, and why not for the rest.
+    Samples ``known`` to be reachable (a safe viewpoint images them) are not probed."""
+    points, normals = samples.points, samples.normals
+    n = len(points)
+    reachable = np.zeros(n, dtype=bool) if known is None else np.array(known, dtype=bool)
+    # Stage 1: straight out along the normal at mid range settles most samples.
+    everyone = np.flatnonzero(~reachable)
+    owner, pos, rays = probe_positions(points, normals, everyone, limits, np.array([[0.0, 0.0, 1.0]]),
+                                       [0.5])
+    status, _ = test_probes(scene, points, normals, owner, pos, rays, limits)
+    reachable[owner[status == OK]] = True
+    # Stage 2: the whole cone for the rest.
+    rest = np.flatnonzero(~reachable)
+    reason = [""] * n
+    if len(rest):
+        owner, pos, rays = probe_positions(points, normals, rest, limits,
+                                           cone_directions(limits.max_incidence_deg * 0.995, n_directions),
+                                           range_fractions)
+        status, culprit = test_probes(scene, points, normals, owner, pos, rays, limits)
+        reachable[owner[status == OK]] = True
+        for s in np.flatnonzero(~reachable[rest]):
+            k = rest[s]
+            mine = owner == k
+            reason[k] = explain(scene, status[mine], culprit[mine])
+    return Reachability(reachable, reason)
+
+
+def explain(scene, status, culprit) -> str:
+    """One line saying why none of a sample's probes worked."""
+    def most_common(mask):
+        c = culprit[mask & (culprit != -1)]
+        if len(c) == 0:
+            return "a mesh"
+        values, counts = np.unique(c, return_counts=True)
+        top = int(values[np.argmax(counts)])
+        return scene.describe(len(scene.parts)) if top == GROUND else scene.describe(top)
+    if (status == UNSAFE).any():
+        unsafe = f"no viewpoint within d_opt keeps the security distance from {most_common(status == UNSAFE)}"
+        # Both: the blocker in front and what crowds the way around it (often the same tree).
+        return f"occluded by {most_common(status == OCCLUDED)}; {unsafe}" if (status == OCCLUDED).any() else unsafe
+    low, gimbal = (status == LOW).any(), (status == GIMBAL).any()
+    if low and gimbal:  # either setting may be what blocks: say both
+        return "visible only from below the minimum altitude or at a gimbal pitch outside its range"
+    if low:
+        return "visible only from below the minimum altitude"
+    if gimbal:
+        return "visible only at a gimbal pitch outside its range"
+    return f"occluded by {most_common(status == OCCLUDED)}"

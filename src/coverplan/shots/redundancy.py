@@ -1,0 +1,186 @@
+"""Drop the shots a finished plan does not need.
+
+The planner adds shots stage after stage: the cover, sharp views, links, then repair on the
+check samples. Each stage adds to what the ones before chose, so by the end some early shots
+give nothing the later ones do not also give (a cover shot whose samples the linking shots
+around it now see as well). Once the plan is complete, each shot, latest first, is dropped
+when the plan without it still has everything it had:
+
+- every check sample it covered stays covered by the check's rule;
+- every sample keeps its sharp views, up to the number asked;
+- every shot keeps ``min_neighbours`` linked shots (those that had fewer lose none), and the
+  linked shots fall into no more pieces.
+
+``prune_redundant`` does the same for the covering alone, within view selection.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from coverplan.shots.visibility import has_pair_between
+
+
+@dataclass
+class SharpViews:
+    """Sharp views to keep: ``views`` (candidate x sample, 1 where the view is sharp) and how
+    many each sample needs."""
+
+    views: sp.csr_matrix
+    wanted: int
+
+
+@dataclass
+class CheckViews:
+    """The views counted on the check samples (candidate ``who`` images sample ``pt`` along the
+    unit ``rays``, sample to camera), which samples they cover, and the rule they are judged by."""
+
+    who: np.ndarray
+    pt: np.ndarray
+    rays: np.ndarray
+    covered: np.ndarray
+    min_views: int
+    min_triangulation_deg: float
+    max_pair_deg: float | None
+
+
+def drop_redundant(chosen: np.ndarray, views: CheckViews, sharp: list[SharpViews] = (),
+                   links: np.ndarray | None = None, min_neighbours: int = 0) -> np.ndarray:
+    """The shots of ``chosen`` (candidate indices, in the order picked) left once every shot
+    the others make redundant is dropped, latest first. ``links``: (len(chosen),) * 2
+    booleans, which chosen shots SfM will match (``shot_links``)."""
+    chosen = np.asarray(chosen, dtype=np.int64)
+    n = len(chosen)
+    alive = np.ones(n, dtype=bool)
+
+    order = np.argsort(chosen)
+    mine = np.isin(views.who, chosen)
+    pt, rays = views.pt[mine], views.rays[mine]
+    row = order[np.searchsorted(chosen[order], views.who[mine])]
+    by_sample = np.argsort(pt)
+    pt_sorted = pt[by_sample]
+    by_row = np.argsort(row, kind="stable")
+    by_shot = np.split(pt[by_row], np.searchsorted(row[by_row], np.arange(1, n)))
+
+    have = [np.asarray(s.views[chosen].sum(axis=0)).ravel() for s in sharp]
+    need = [np.minimum(s.wanted, h) for s, h in zip(sharp, have)]
+    sharp_rows = [s.views[chosen].tocsr() for s in sharp]
+
+    if links is None:
+        links = np.zeros((n, n), dtype=bool)
+    degree = links.sum(axis=1)
+    floor = np.minimum(degree, min_neighbours)
+    neighbours = [np.flatnonzero(r).tolist() for r in links]
+
+    for k in range(n - 1, -1, -1):
+        # Sharp views and links first: the cheapest tests.
+        if any((h[_row(m, k)] - 1 < d[_row(m, k)]).any() for h, d, m in zip(have, need, sharp_rows)):
+            continue
+        near = np.flatnonzero(links[k] & alive)
+        if (degree[near] - 1 < floor[near]).any():
+            continue
+        samples = by_shot[k][views.covered[by_shot[k]]]
+        if len(samples):
+            lo = np.searchsorted(pt_sorted, samples, side="left")
+            hi = np.searchsorted(pt_sorted, samples, side="right")
+            local = np.repeat(np.arange(len(samples)), hi - lo)
+            entries = by_sample[_ranges(lo, hi)]
+            live = alive[row[entries]] & (row[entries] != k)
+            local, entries = local[live], entries[live]
+            if (np.bincount(local, minlength=len(samples)) < views.min_views).any():
+                continue
+            if not has_pair_between(local, rays[entries], len(samples), views.min_triangulation_deg,
+                                    views.max_pair_deg).all():
+                continue
+        alive[k] = False
+        if len(near) > 1 and not _joined(neighbours, alive, near):
+            alive[k] = True
+            continue
+        degree[near] -= 1
+        for h, m in zip(have, sharp_rows):
+            h[_row(m, k)] -= 1
+    return chosen[alive]
+
+
+def _row(m: sp.csr_matrix, k: int) -> np.ndarray:
+    """The columns of row ``k`` of ``m``."""
+    return m.indices[m.indptr[k]:m.indptr[k + 1]]
+
+
+def _joined(neighbours: list[list[int]], alive: np.ndarray, near: np.ndarray) -> bool:
+    """Whether the shots ``near`` (the alive neighbours of a dropped shot) still reach each
+    other through alive shots: if so, dropping it split no piece. A search from one of them
+    that stops once it has met them all, mostly a few steps away."""
+    want = {int(j) for j in near[1:]}
+    seen = {int(near[0])}
+    todo = [int(near[0])]
+    while todo and want:
+        for v in neighbours[todo.pop()]:
+            if alive[v] and v not in seen:
+                seen.add(v)
+                want.discard(v)
+                todo.append(v)
+    return not want
+
+
+def _ranges(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The concatenation of arange(lo[i], hi[i])."""
+    lengths = hi - lo
+    total = int(lengths.sum())
+    if total == 0:
+        return np.zeros(0, np.int64)
+    return np.repeat(lo - np.cumsum(lengths) + lengths, lengths) + np.arange(total)
+
+
+def coverage_state(vis: sp.csr_matrix, rays: np.ndarray, chosen, min_views: int, min_triangulation_deg: float,
+                   max_pair_deg: float | None = None):
+    """Views per sample and whether each sample is covered by the ``chosen`` candidates."""
+    _, cols, ray = _rows(vis, rays, chosen)
+    views = np.bincount(cols, minlength=vis.shape[1])
+    paired = has_pair_between(cols, ray, vis.shape[1], min_triangulation_deg, max_pair_deg)
+    return views, (views >= min_views) & paired
+
+
+def prune_redundant(vis, rays, chosen, min_views: int, min_triangulation_deg: float,
+                    max_pair_deg: float | None = None, fixed: int = 0) -> np.ndarray:
+    """Drop chosen candidates, earliest-picked last, whose removal uncovers no covered sample;
+    the first ``fixed`` are kept whatever."""
+    keep = np.ones(len(chosen), dtype=bool)
+    _views, covered = coverage_state(vis, rays, chosen, min_views, min_triangulation_deg, max_pair_deg)
+    indptr, indices = vis.indptr, vis.indices
+    # Per sample, the chosen views that image it (rows of a chosen x samples matrix, by column).
+    rows, cols, ray = _rows(vis, rays, chosen)
+    by_sample = sp.csc_matrix((np.arange(len(rows)) + 1, (rows, cols)), shape=(len(chosen), vis.shape[1]))
+    for k in range(len(chosen) - 1, fixed - 1, -1):
+        j = chosen[k]
+        s = indices[indptr[j]:indptr[j + 1]]
+        s = s[covered[s]]
+        if len(s) == 0:
+            keep[k] = False
+            continue
+        sub = by_sample[:, s].tocoo()
+        alive = keep[sub.row] & (sub.row != k)
+        entry = sub.data[alive] - 1
+        local = sub.col[alive]
+        n_views = np.bincount(local, minlength=len(s))
+        if (n_views < min_views).any():
+            continue
+        if has_pair_between(local, ray[entry], len(s), min_triangulation_deg, max_pair_deg).all():
+            keep[k] = False
+    return chosen[keep]
+
+
+def _rows(vis, rays, chosen):
+    """(row in chosen, sample, ray) for every nonzero of the chosen rows."""
+    chosen = np.asarray(chosen, dtype=np.int64)
+    indptr = vis.indptr
+    lengths = indptr[chosen + 1] - indptr[chosen]
+    if lengths.sum() == 0:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3))
+    starts = np.repeat(indptr[chosen], lengths)
+    offsets = np.arange(lengths.sum()) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+    entries = starts + offsets
+    return np.repeat(np.arange(len(chosen)), lengths), vis.indices[entries], rays[entries]

@@ -1,0 +1,68 @@
+"""Links judged where the evaluator judges them: on the check samples.
+
+The planner links its shots on its own samples, 1-2 m apart. Whether two photos share 30 %
+of what they see is then counted on a few dozen samples each, and a link at the edge of the
+rule can fall either side of it on the evaluator's samples 0.25 m apart: the ring prism's
+plan for a Phantom 4 Pro was one piece on the planner's samples and four (the largest 139 of
+181 photos) on the evaluator's. The check samples are as fine as the evaluator's or finer,
+and the check already knows which of them every shot images (by the evaluator's rule), so
+the plan's links are judged again on them. Where they fall into pieces or leave a photo
+short of neighbours, the candidates that link (on the planner's samples) to a photo in need
+or to two pieces get their views on the check samples, and ``connect_shots`` adds those
+that bridge, judged on the same samples.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+from coverplan.shots.reconstructability import (
+    MatchRule,
+    candidate_links,
+    connect_shots,
+    extend_links,
+)
+from coverplan.shots.visibility import imaging_pairs
+
+
+def relink_on_check(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse_vis: sp.csr_matrix) -> np.ndarray:
+    """``chosen`` (candidate indices) with the shots added that its links on the check samples
+    need: one piece, ``rule.min_neighbours`` per photo, where a candidate that links (on the
+    planner's samples, ``coarse_vis``: candidates x those samples) to a photo short of
+    neighbours, or to photos in two pieces, can give it."""
+    chosen = np.asarray(chosen, dtype=np.int64)
+    fine = closer.fine
+    who, at = closer.all_views()
+    mine = np.isin(who, chosen)
+    row_of = np.full(len(problem.cands), -1, dtype=np.int64)
+    row_of[chosen] = np.arange(len(chosen))
+    vis = sp.csr_matrix((np.ones(int(mine.sum())), (row_of[who[mine]], at[mine])), shape=(len(chosen), len(fine)))
+    positions = problem.cands.positions
+    links = candidate_links(vis, positions[chosen], fine.points, rule)
+    n_pieces, piece = connected_components(links, directed=False)
+    short = np.asarray(links.sum(axis=1)).ravel() < rule.min_neighbours
+    if n_pieces <= 1 and not short.any():
+        return chosen
+    coarse = problem.samples.points[:coarse_vis.shape[1]]
+    near = candidate_links(coarse_vis, positions, coarse, rule, rows=chosen)[chosen].tocsr()  # shots x candidates
+    member = sp.csr_matrix((np.ones(len(chosen)), (piece, np.arange(len(chosen)))), shape=(n_pieces, len(chosen)))
+    pieces_reached = np.asarray(((member @ near) > 0).sum(axis=0)).ravel()
+    helps_short = np.asarray(near[np.flatnonzero(short)].sum(axis=0)).ravel() > 0
+    useful = (pieces_reached >= 2) | helps_short
+    useful[chosen] = False
+    extra = np.flatnonzero(useful)
+    if len(extra) == 0:
+        return chosen
+    c = problem.cands.subset(extra)
+    cam, pt, _ = imaging_pairs(c.positions, c.heading_deg, c.pitch_deg, problem.camera, fine.points, fine.normals,
+                               problem.scene.rays, max_range=problem.limits.d_opt,
+                               max_incidence_deg=problem.limits.max_incidence_deg, offset=problem.scene.epsilon * 4,
+                               point_tree=closer.tree)
+    pool = np.concatenate([chosen, extra])
+    more = sp.csr_matrix((np.ones(len(cam)), (cam, pt)), shape=(len(extra), len(fine)))
+    vis = sp.vstack([vis, more]).tocsr()
+    every = extend_links(vis, positions[pool], fine.points, rule, links)  # the shots' own links are known
+    linked = connect_shots(vis, positions[pool], fine.points, np.arange(len(chosen)), rule, links=every)
+    return pool[linked]

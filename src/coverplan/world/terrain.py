@@ -1,0 +1,317 @@
+"""Terrain: the ground under the flight as a height grid in the scene's local frame.
+
+The ground is the grid's triangulated surface: every cell split along the diagonal from its
+(+x, 0) corner to its (0, +y) corner, heights linear on each triangle, and beyond the grid the
+height of its nearest edge. Because the surface is piecewise linear, a straight segment's
+height above it is piecewise linear too, with breaks only where the segment crosses a grid
+line or a diagonal; checking those crossings and the ends is an exact test of "every point of
+the segment is at least the minimum altitude above the ground".
+
+Sources: a DTM raster (GeoTIFF through rasterio, reprojected to the scene's CRS) or the
+ground surfaces of a city model (TINRelief, roads, land use), read into a grid by vertical
+rays. Cells without data take the height of the nearest cell with data.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from coverplan.errors import InputFileError, ParameterError
+from coverplan.geometry.raycast import RayCaster
+
+# The grid is kept below this many cells: a finer raster is resampled, keeping each new
+# cell's highest ground (the minimum altitude is then never measured from too low).
+MAX_CELLS = 4_000_000
+# Around the scene's meshes the terrain reaches this far (m): the flight and a distant start
+# stay over it. Farther, the height of the grid's edge is used.
+TERRAIN_MARGIN_M = 250.0
+
+
+@dataclass
+class Terrain:
+    """Ground heights (m, local frame) at grid nodes x0 + i*dx, y0 + j*dy: ``heights[j, i]``."""
+
+    x0: float
+    y0: float
+    dx: float
+    dy: float
+    heights: np.ndarray
+    source: str = "terrain"
+
+    def __post_init__(self):
+        self.heights = np.asarray(self.heights, dtype=float)
+        if self.heights.ndim != 2 or min(self.heights.shape) < 2:
+            raise ParameterError(f"{self.source}: a terrain needs at least 2 x 2 heights")
+        if not np.isfinite(self.heights).all():
+            raise ParameterError(f"{self.source}: the terrain has cells without a height")
+        if not (self.dx > 0 and self.dy > 0):
+            raise ParameterError(f"{self.source}: terrain cells must have a positive size")
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.heights.shape
+
+    def _grid_coords(self, xy):
+        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+        return (xy[:, 0] - self.x0) / self.dx, (xy[:, 1] - self.y0) / self.dy
+
+    def _height_uv(self, u, v) -> np.ndarray:
+        ny, nx = self.shape
+        u, v = np.clip(u, 0.0, nx - 1), np.clip(v, 0.0, ny - 1)
+        i = np.minimum(np.floor(u).astype(np.int64), nx - 2)
+        j = np.minimum(np.floor(v).astype(np.int64), ny - 2)
+        fu, fv = u - i, v - j
+        h = self.heights
+        h00, h10, h01, h11 = h[j, i], h[j, i + 1], h[j + 1, i], h[j + 1, i + 1]
+        lower = fu + fv <= 1.0
+        return np.where(lower, h00 + fu * (h10 - h00) + fv * (h01 - h00),
+                        h11 + (1.0 - fu) * (h01 - h11) + (1.0 - fv) * (h10 - h11))
+
+    def height(self, xy) -> np.ndarray:
+        """Ground height under each (x, y)."""
+        return self._height_uv(*self._grid_coords(xy))
+
+    def lowest_in(self, lo_xy, hi_xy) -> float:
+        """Lowest ground over the box [lo_xy, hi_xy] (clamped to the grid like ``height``)."""
+        ny, nx = self.shape
+        (u0, u1), (v0, v1) = (self._grid_coords(np.array([lo_xy, hi_xy])[:, :2]))
+        i0, i1 = int(np.clip(np.floor(u0), 0, nx - 1)), int(np.clip(np.ceil(u1), 0, nx - 1))
+        j0, j1 = int(np.clip(np.floor(v0), 0, ny - 1)), int(np.clip(np.ceil(v1), 0, ny - 1))
+        return float(self.heights[j0:j1 + 1, i0:i1 + 1].min())
+
+    @cached_property
+    def max_slope(self) -> float:
+        """Largest rise per metre of horizontal travel over any triangle (bounds the height
+        change along a segment: |dh| <= max_slope * horizontal length)."""
+        h = self.heights
+        gx = np.abs(np.diff(h, axis=1)) / self.dx
+        gy = np.abs(np.diff(h, axis=0)) / self.dy
+        # On a triangle the gradient is (dh/dx, dh/dy) from two of its edges; its norm is below
+        # the norm of the largest edge slopes.
+        return float(np.hypot(gx.max(), gy.max()))
+
+    @cached_property
+    def mesh(self) -> trimesh.Trimesh:
+        """The ground surface, facing up, over the grid."""
+        ny, nx = self.shape
+        return self._mesh_through(np.arange(nx), np.arange(ny))
+
+    def _mesh_through(self, cols, rows) -> trimesh.Trimesh:
+        """Two triangles per cell of the grid through the given node columns and rows."""
+        gx, gy = np.meshgrid(self.x0 + cols * self.dx, self.y0 + rows * self.dy)
+        vertices = np.column_stack([gx.ravel(), gy.ravel(), self.heights[np.ix_(rows, cols)].ravel()])
+        idx = np.arange(len(rows) * len(cols)).reshape(len(rows), len(cols))
+        a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
+        faces = np.vstack([np.column_stack([a, b, c]), np.column_stack([b, d, c])])
+        return trimesh.Trimesh(vertices, faces, process=False)
+
+    def mesh_within(self, lo_xy, hi_xy, max_cells: int = 40_000) -> trimesh.Trimesh:
+        """The ground over the box ``lo_xy``-``hi_xy`` (and one node beyond) through every k-th
+        grid node, k such that at most about ``max_cells`` cells remain: for pictures."""
+        ny, nx = self.shape
+        u, v = self._grid_coords(np.array([lo_xy[:2], hi_xy[:2]], dtype=float))
+        i0, i1 = int(np.clip(np.floor(u[0]) - 1, 0, nx - 2)), int(np.clip(np.ceil(u[1]) + 1, 1, nx - 1))
+        j0, j1 = int(np.clip(np.floor(v[0]) - 1, 0, ny - 2)), int(np.clip(np.ceil(v[1]) + 1, 1, ny - 1))
+        step = max(1, int(np.ceil(np.sqrt(max(i1 - i0, 1) * max(j1 - j0, 1) / max_cells))))
+        cols = np.unique(np.append(np.arange(i0, i1 + 1, step), i1))  # the box's edge kept
+        rows = np.unique(np.append(np.arange(j0, j1 + 1, step), j1))
+        return self._mesh_through(cols, rows)
+
+    def segments_above(self, starts, ends, altitude: float, tol: float = 1e-6,
+                       max_checks: int = 4_000_000) -> np.ndarray:
+        """Whether every point of each segment is at least ``altitude`` above the ground
+        (exact for this piecewise-linear ground, up to ``tol``)."""
+        a = np.asarray(starts, dtype=float).reshape(-1, 3)
+        b = np.asarray(ends, dtype=float).reshape(-1, 3)
+        if not len(a):
+            return np.ones(0, dtype=bool)
+        # Settled by the ends: both high enough that no slope of this ground reaches up to the
+        # segment in between (the height changes at most max_slope per metre).
+        margin = np.minimum(a[:, 2] - self.height(a[:, :2]), b[:, 2] - self.height(b[:, :2])) - altitude
+        horizontal = np.linalg.norm(b[:, :2] - a[:, :2], axis=1)
+        sure = margin >= self.max_slope * horizontal
+        ok = margin >= -tol
+        unsure = np.flatnonzero(ok & ~sure)
+        if len(unsure):
+            ok[unsure] = self.lowest_above(a[unsure], b[unsure], max_checks) >= altitude - tol
+        return ok
+
+    def lowest_above(self, starts, ends, max_checks: int = 4_000_000) -> np.ndarray:
+        """Each segment's lowest height above the ground (exact: at its ends or where it crosses
+        a grid line or a cell's diagonal)."""
+        a = np.asarray(starts, dtype=float).reshape(-1, 3)
+        b = np.asarray(ends, dtype=float).reshape(-1, 3)
+        out = np.empty(len(a))
+        u0, v0 = self._grid_coords(a[:, :2])
+        u1, v1 = self._grid_coords(b[:, :2])
+        work = 5 + np.abs(u1 - u0) + np.abs(v1 - v0) + np.abs(u1 + v1 - u0 - v0)  # ends + crossings, roughly
+        first = 0
+        while first < len(a):  # chunks of about max_checks points
+            last = first + max(1, int(np.searchsorted(np.cumsum(work[first:]), max_checks)))
+            owner, t = self._breakpoints(u0[first:last], v0[first:last], u1[first:last], v1[first:last])
+            p = a[first:last][owner] + t[:, None] * (b[first:last] - a[first:last])[owner]
+            above = p[:, 2] - self.height(p[:, :2])
+            low = np.full(last - first, np.inf)
+            np.minimum.at(low, owner, above)
+            out[first:last] = low
+            first = last
+        return out
+
+    def _breakpoints(self, u0, v0, u1, v1) -> tuple[np.ndarray, np.ndarray]:
+        """(segment, t) of the ends and of every crossing of a grid line or diagonal."""
+        ny, nx = self.shape
+        n = len(u0)
+        seg, ts = [np.arange(n), np.arange(n)], [np.zeros(n), np.ones(n)]
+        # Beyond the grid the height is the edge's: only crossings within it break the line.
+        for s0, s1, top in ((u0, u1, nx - 1), (v0, v1, ny - 1), (u0 + v0, u1 + v1, nx + ny - 2)):
+            lo = np.maximum(np.ceil(np.minimum(s0, s1)), 0.0)
+            hi = np.minimum(np.floor(np.maximum(s0, s1)), top)
+            count = np.maximum(hi - lo + 1, 0).astype(np.int64)
+            total = int(count.sum())
+            if not total:
+                continue
+            owner = np.repeat(np.arange(n), count)
+            k = lo[owner] + np.arange(total) - np.repeat(np.cumsum(count) - count, count)
+            ds = (s1 - s0)[owner]
+            moving = np.abs(ds) > 1e-12
+            t = np.where(moving, (k - s0[owner]) / np.where(moving, ds, 1.0), 0.0)
+            seg.append(owner)
+            ts.append(np.clip(t, 0.0, 1.0))
+        return np.concatenate(seg), np.concatenate(ts)
+
+    @classmethod
+    def from_triangles(cls, triangles, lo_xy, hi_xy, step: float, source: str) -> "Terrain":
+        """Heights of the highest of ``triangles`` over a grid on [lo_xy, hi_xy]; nodes no
+        triangle covers take the nearest covered node's height."""
+        tri = np.asarray(triangles, dtype=float).reshape(-1, 3, 3)
+        if not len(tri):
+            raise InputFileError(source, "holds no ground surfaces")
+        xs, ys = _axis(lo_xy[0], hi_xy[0], step), _axis(lo_xy[1], hi_xy[1], step)
+        if len(xs) * len(ys) > MAX_CELLS:
+            step *= np.sqrt(len(xs) * len(ys) / MAX_CELLS)
+            xs, ys = _axis(lo_xy[0], hi_xy[0], step), _axis(lo_xy[1], hi_xy[1], step)
+        mesh = trimesh.Trimesh(tri.reshape(-1, 3), np.arange(3 * len(tri)).reshape(-1, 3), process=False)
+        gx, gy = np.meshgrid(xs, ys)
+        top = float(tri[:, :, 2].max()) + 10.0
+        origins = np.column_stack([gx.ravel(), gy.ravel(), np.full(gx.size, top)])
+        dist, _mesh, _face = RayCaster([mesh]).first_hit(origins, np.tile([0.0, 0.0, -1.0], (len(origins), 1)))
+        heights = (top - dist).reshape(gx.shape)
+        return cls(float(xs[0]), float(ys[0]), float(xs[1] - xs[0]), float(ys[1] - ys[0]),
+                   fill_gaps(heights, source), source)
+
+
+def _axis(lo: float, hi: float, step: float) -> np.ndarray:
+    n = max(int(np.ceil((hi - lo) / step)) + 1, 2)
+    return lo + np.arange(n) * ((hi - lo) / (n - 1) if hi > lo else step)
+
+
+def fill_gaps(heights: np.ndarray, source: str) -> np.ndarray:
+    """NaN cells take their nearest valid cell's height (under buildings, past a raster's edge)."""
+    from scipy import ndimage
+    missing = ~np.isfinite(heights)
+    if missing.all():
+        raise InputFileError(source, "has no height anywhere around the target")
+    if missing.any():
+        _d, (jj, ii) = ndimage.distance_transform_edt(missing, return_indices=True)
+        heights = heights[jj, ii]
+    return heights
+
+
+def read_dtm(path, scene_crs: str | None, origin, lo_xy, hi_xy, unit_m: float = 1.0) -> tuple[Terrain, list[str]]:
+    """A DTM raster over the source-frame box [lo_xy, hi_xy] (grown by TERRAIN_MARGIN_M), in
+    the scene's CRS and local frame (``origin`` subtracted), and notes on what was done."""
+    try:
+        import rasterio
+        from rasterio.enums import Resampling
+        from rasterio.transform import from_origin
+        from rasterio.warp import reproject, transform_bounds
+    except ImportError:
+        raise ParameterError("reading a DTM needs rasterio: pip install 'coverplan[terrain]'") from None
+    path = Path(path)
+    if not path.is_file():
+        raise InputFileError(path, "does not exist")
+    notes = []
+    origin = np.asarray(origin, dtype=float)
+    margin = TERRAIN_MARGIN_M / unit_m
+    lo = np.asarray(lo_xy, dtype=float)[:2] - margin
+    hi = np.asarray(hi_xy, dtype=float)[:2] + margin
+    try:
+        src = rasterio.open(path)
+    except rasterio.errors.RasterioIOError as exc:
+        raise InputFileError(path, f"is not a raster rasterio can read ({str(exc).splitlines()[0]})") from None
+    with src:
+        raster_crs = src.crs.to_string() if src.crs else None
+        if raster_crs and not scene_crs:
+            raise ParameterError(f"{path.name} is in {raster_crs} but the models carry no CRS; give theirs with --crs")
+        res = float(min(abs(src.res[0]), abs(src.res[1])))
+        if raster_crs and scene_crs and _same_crs(raster_crs, scene_crs):
+            raster_crs = None  # same frame: read directly
+        step = res if raster_crs is None else _step_in(scene_crs, raster_crs, res, lo, hi)
+        # No grid beyond the raster: past the grid's edge its edge heights stand in anyway.
+        have = np.array(src.bounds, dtype=float) if raster_crs is None else \
+            np.array(transform_bounds(src.crs, scene_crs, *src.bounds), dtype=float)
+        wanted_lo, wanted_hi = lo, hi
+        lo, hi = np.maximum(lo, have[:2]), np.minimum(hi, have[2:])
+        if (hi - lo < step).any():
+            raise InputFileError(path, f"does not reach the scene: it covers x {have[0]:.1f}..{have[2]:.1f}, "
+                                       f"y {have[1]:.1f}..{have[3]:.1f}; the scene is at x {wanted_lo[0] + margin:.1f}.."
+                                       f"{wanted_hi[0] - margin:.1f}, y {wanted_lo[1] + margin:.1f}..{wanted_hi[1] - margin:.1f}")
+        cells = np.prod(np.ceil((hi - lo) / step) + 1)
+        resampling = Resampling.bilinear
+        if raster_crs is None and cells <= MAX_CELLS and abs(src.res[0] - src.res[1]) < 1e-9 * res:
+            # Nodes on the raster's pixel centres take its heights as they are; nodes on its
+            # corners took the mean of four pixels, lowering a hilltop or the top of a bank.
+            first, last = have[:2] + res / 2, have[2:] - res / 2
+            lo = np.clip(first + np.floor((lo - first) / res) * res, first, last)
+            hi = np.clip(first + np.ceil((hi - first) / res) * res, first, last)
+        if cells > MAX_CELLS:
+            step *= float(np.sqrt(cells / MAX_CELLS))
+            resampling = Resampling.max
+            notes.append(f"{path.name}: resampled to {step * unit_m:.2f} m cells, keeping each cell's highest ground")
+        nx = int(np.ceil((hi[0] - lo[0]) / step)) + 1
+        ny = int(np.ceil((hi[1] - lo[1]) / step)) + 1
+        out = np.full((ny, nx), np.nan, dtype=np.float64)
+        # Node (i, j) of our grid is a cell centre of the destination raster; its rows run north
+        # to south, ours south to north.
+        transform = from_origin(lo[0] - step / 2, lo[1] + (ny - 0.5) * step, step, step)
+        # Same frame (or none given): the same CRS on both sides makes the warp a pure resampling.
+        src_crs = src.crs or "EPSG:3857"
+        dst_crs = scene_crs if raster_crs else src_crs
+        reproject(rasterio.band(src, 1), out, src_crs=src_crs, dst_transform=transform, dst_crs=dst_crs,
+                  src_nodata=src.nodata, dst_nodata=np.nan, resampling=resampling)
+    heights = out[::-1]
+    valid = np.isfinite(heights)
+    if not valid.any():
+        raise InputFileError(path, f"has no height over the scene (its area does not reach the target at "
+                                   f"{', '.join(f'{v:.1f}' for v in (lo + hi) / 2)})")
+    share = float(valid.mean()) * float(np.prod(hi - lo) / np.prod(wanted_hi - wanted_lo))
+    if share < 0.99:
+        notes.append(f"{path.name} covers {share:.0%} of the area within {TERRAIN_MARGIN_M:g} m of the scene; "
+                     "beyond it the nearest height stands in")
+    # Heights in the CRS's unit like the models' (scaled with them), then the local frame.
+    heights = fill_gaps(heights, str(path)) * unit_m - origin[2]
+    x0, y0 = lo[0] * unit_m - origin[0], lo[1] * unit_m - origin[1]
+    return Terrain(x0, y0, step * unit_m, step * unit_m, heights, path.name), notes
+
+
+def _same_crs(a: str, b: str) -> bool:
+    from pyproj import CRS
+    try:
+        return CRS.from_user_input(a).equals(CRS.from_user_input(b), ignore_axis_order=True)
+    except Exception:
+        return a == b
+
+
+def _step_in(scene_crs: str, raster_crs: str, res: float, lo, hi) -> float:
+    """The raster's cell size expressed in the scene CRS's units (near the scene)."""
+    from pyproj import Transformer
+    t = Transformer.from_crs(scene_crs, raster_crs, always_xy=True)
+    c = (np.asarray(lo) + np.asarray(hi)) / 2.0
+    x, y = t.transform([c[0], c[0] + 1.0, c[0]], [c[1], c[1], c[1] + 1.0])
+    per_unit = float(np.mean([np.hypot(x[1] - x[0], y[1] - y[0]), np.hypot(x[2] - x[0], y[2] - y[0])]))
+    return res / max(per_unit, 1e-12)
