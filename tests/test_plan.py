@@ -36,15 +36,19 @@ def load(name):
 
 @pytest.fixture(scope="module")
 def planned():
-    """Plan every sample scene once (thesis settings: d_opt 7 m, security 3 m, 80 deg FOV)."""
+    """Each sample scene planned once per test process, when a test first asks for it (thesis
+    settings: d_opt 7 m, security 3 m, 80 deg FOV): the workers share the scenes out."""
     from coverplan import get_camera
-    camera = get_camera("thesis80")
-    out = {}
-    for name in SCENES:
-        scene = load(name)
-        route = plan(scene, camera, gsd=gsd_for(camera, 7.0), security=SECURITY)
-        out[name] = (scene, route, evaluate(route, scene))
-    return out
+
+    class Plans(dict):
+        def __missing__(self, name):
+            camera = get_camera("thesis80")
+            scene = load(name)
+            route = plan(scene, camera, gsd=gsd_for(camera, 7.0), security=SECURITY)
+            self[name] = (scene, route, evaluate(route, scene))
+            return self[name]
+
+    return Plans()
 
 
 @pytest.mark.parametrize("name", list(SCENES))
