@@ -95,6 +95,8 @@ ROWS = {
     "GSD <= 0": (lambda t: ["plan", L, "--camera", "phantom4pro", "--gsd", "-0.01", "--security", "3",
                             "-o", t / "r.json"], ["gsd"]),
     "spacing <= 0": (lambda t: ["plan", L, *PLAN, "--spacing", "0", "-o", t / "r.json"], ["spacing"]),
+    "ceiling below the minimum altitude": (lambda t: ["plan", L, *PLAN, "--max-altitude", "2", "-o", t / "r.json"],
+                                           ["--max-altitude", "not above the minimum altitude"]),
     "contradictory units": (lambda t: ["plan", CITY / "lod2_buildings_v2.json.gz", "--building", HOUSE, "--units", "mm",
                                        *PLAN, "-o", t / "r.json"], ["--units mm", "contradicts", "EPSG:3068"]),
     "contradictory CRS": (lambda t: ["plan", CITY / "lod2_buildings_v2.json.gz", "--building", HOUSE, "--crs",

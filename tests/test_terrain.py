@@ -312,7 +312,7 @@ def test_exports_count_heights_from_the_ground_under_the_start(tmp_path):
     mesh = box(-6, -4, -1.5, 6, 4, 7.5)
     mesh.apply_translation([UTM_EAST, UTM_NORTH, 250.0])
     mesh.export(tmp_path / "house.obj")
-    start = [UTM_EAST + 25.0, UTM_NORTH, 0.0]  # uphill: raised to 3 m above its ground (253.75 m)
+    start = [UTM_EAST + 25.0, UTM_NORTH, 0.0]  # uphill: raised to 3 m clear of the slope (ground 253.75 m)
     out = tmp_path / "r.json"
     assert main(["plan", str(tmp_path / "house.obj"), "--crs", "EPSG:25832", "--terrain", str(dtm), *ARGS,
                  "--start", *map(str, start), "--export", "qgc", "--no-evaluate", "-o", str(out)]) == 0
@@ -321,7 +321,10 @@ def test_exports_count_heights_from_the_ground_under_the_start(tmp_path):
     source = route.positions + origin
     takeoff = ground(start[0], start[1])
     assert route.takeoff_z + origin[2] == pytest.approx(takeoff, abs=1e-3)
-    assert source[0, 2] == pytest.approx(takeoff + SECURITY, abs=1e-3)
+    # 3 m from the 15 % slope in 3D is 3.03 m above it; the planner's envelope of the ground
+    # stays above the true one by up to about a cell's rise.
+    clear = SECURITY * np.hypot(1.0, GRADE)
+    assert takeoff + clear - 1e-3 <= source[0, 2] <= takeoff + clear + 3 * GRADE * CELL
     items = json.loads((tmp_path / "r.plan").read_text())["mission"]["items"]
     alt = np.array([i["params"][6] for i in items if i["command"] == 16])
     np.testing.assert_allclose(alt, source[1:, 2] - takeoff, atol=0.01)
@@ -363,3 +366,60 @@ def test_report_draws_the_ground_under_its_frame(tmp_path):
         assert not [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
     finally:
         browser.quit()
+
+
+# -- the security distance from the ground in 3D (issue 34) --------------------------------
+
+def test_clearance_envelope_keeps_the_distance_in_3d_and_is_exact_over_flat_ground():
+    """Points on the envelope are at least the distance from the ground's own triangle mesh
+    (trimesh's closest points, not the planner's grid); over flat ground it is the height."""
+    rng = np.random.default_rng(4)
+    heights = np.cumsum(rng.normal(0, 0.4, (40, 50)), axis=1) + 3.0 * np.sin(np.arange(40) / 5.0)[:, None]
+    ground = Terrain(-10.0, -8.0, 0.5, 0.5, heights)
+    env = ground.clearance_envelope(4.0)
+    xy = rng.uniform([-9, -7], [13, 10], (3000, 2))
+    pts = np.column_stack([xy, env.height(xy)])
+    _closest, dist, _tri = trimesh.proximity.closest_point(ground.mesh, pts)
+    assert dist.min() >= 4.0 - 1e-6
+    assert np.median(dist) < 4.6  # and not far more than asked: within about a cell's rise
+    flat = Terrain(0.0, 0.0, 1.0, 1.0, np.full((20, 20), 7.0)).clearance_envelope(3.0)
+    np.testing.assert_allclose(flat.heights, 10.0)
+
+
+STEEP = 0.35  # 35 % (19 deg): 4 m straight up is 3.78 m from the slope
+
+
+def steep(x, y):
+    return STEEP * y
+
+
+def test_hillside_house_keeps_the_security_distance_from_the_slope_in_3d(tmp_path):
+    """A house dug into a 35 % hillside with a tree uphill, planned with the DTM and 4 m
+    security: every 5 cm of the flight is >= 4 m from the ground as a surface (trimesh's
+    distance to the DTM's own triangles, built here) and from the house and the tree."""
+    dtm = write_dtm(tmp_path / "hill.tif", steep)
+    house = house_on(tmp_path, steep)
+    tree = trimesh.creation.cylinder(radius=2.5, height=9.0, sections=16)
+    tree.apply_translation([3.0, 13.0, steep(3.0, 13.0) + 4.0])
+    tree.export(tmp_path / "tree.obj")
+    out = tmp_path / "r.json"
+    assert main(["plan", str(house), "--obstacles", str(tmp_path / "tree.obj"), "--terrain", str(dtm),
+                 "--camera", "phantom4pro", "--gsd", "0.005", "--security", "4", "--quiet", "-o", str(out)]) == 0
+    route = Route.load(out)
+    along = points_along(route.positions)
+    # The DTM's heights at its pixel centres, as a triangle mesh of this test's own.
+    n, cell = int(2 * HALF / CELL), CELL
+    xs = -HALF + cell / 2 + np.arange(n) * cell
+    gx, gy = np.meshgrid(xs, xs)
+    verts = np.column_stack([gx.ravel(), gy.ravel(), steep(gx, gy).ravel()])
+    idx = np.arange(n * n).reshape(n, n)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
+    ground = trimesh.Trimesh(verts, np.vstack([np.column_stack([a, b, c]), np.column_stack([b, d, c])]),
+                             process=False)
+    _closest, to_ground, _tri = trimesh.proximity.closest_point(ground, along)
+    assert to_ground.min() >= 4.0 - 1e-3, to_ground.min()
+    # The minimum altitude alone would have allowed 4 m straight above the slope: 3.78 m from it.
+    assert (along[:, 2] - steep(along[:, 0], along[:, 1])).min() >= 4.0 / np.cos(np.arctan(STEEP)) - 0.05
+    for obstacle in (trimesh.load(house), tree):
+        _c, dist, _t = trimesh.proximity.closest_point(obstacle, along[::4])
+        assert dist.min() >= 4.0 - 1e-3

@@ -44,13 +44,16 @@ def view_limits(route: Route, scene, rule: str = "strict") -> ViewLimits:
     min_alt = route.params.get("min_altitude_m", route.security)
     lo, hi = route.params.get("gimbal_pitch_range_deg", (-90.0, 90.0))
     incidence = float(route.param("max_incidence_deg")) if rule == "strict" else 89.9
+    ceiling = route.params.get("max_altitude_m")
     if scene.terrain is not None:
         return scene_limits(scene, security=route.security, d_opt=route.d_opt, max_incidence_deg=incidence,
-                            min_altitude=float(min_alt), pitch_range_deg=(lo, hi), vfov_deg=route.camera.vfov_deg)
+                            min_altitude=float(min_alt), pitch_range_deg=(lo, hi), vfov_deg=route.camera.vfov_deg,
+                            max_altitude=ceiling)
     return ViewLimits(security=route.security, d_opt=route.d_opt,
                       max_incidence_deg=incidence,
                       min_z=float(ground) + float(min_alt), pitch_range_deg=(float(lo), float(hi)),
-                      vfov_deg=route.camera.vfov_deg, ground_z=float(ground))
+                      vfov_deg=route.camera.vfov_deg, ground_z=float(ground),
+                      max_altitude=np.inf if ceiling is None else float(ceiling))
 
 
 @dataclass
@@ -213,6 +216,10 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
     low = np.flatnonzero(~limits.above_floor(p, ALTITUDE_TOLERANCE_M))
     lowest = lowest_above_ground(p, limits)
     low_segments = np.flatnonzero(lowest < limits.min_altitude - ALTITUDE_TOLERANCE_M)
+    to_ground, near_ground = ground_clearance(p, scene, security)
+    high = np.flatnonzero(~limits.below_ceiling(p, ALTITUDE_TOLERANCE_M))
+    high_segments = np.flatnonzero(~limits.segments_below_ceiling(p[:-1], p[1:], ALTITUDE_TOLERANCE_M)) \
+        if len(p) > 1 else np.zeros(0, np.int64)
     orient = route.orientation_errors_deg()
     seg_k = int(np.argmin(ev.segment_clearance)) if len(ev.segment_clearance) else None
     p_outliers = (ev.views >= 2) & (ev.widest_deg < float(route.param("min_triangulation_deg")))
@@ -287,11 +294,18 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
         "segments_below_min_altitude_count": int(len(low_segments)),
         "lowest_above_ground_m": float(lowest.min()) if len(lowest) else float(p[0, 2] - limits.ground_at(p[:1, :2])[0]),
         "min_altitude_m": limits.min_altitude,
+        "ground_clearance_m": to_ground,  # the flight's least distance from the terrain in 3D (None: flat)
+        "segments_near_ground_count": int(len(near_ground)),
+        "max_altitude_m": limits.max_altitude if np.isfinite(limits.max_altitude) else None,
+        "highest_above_ground_m": float(highest_above_ground(p, limits).max()) if len(p) > 1 else
+        float(p[0, 2] - limits.ground_at(p[:1, :2])[0]),
+        "above_ceiling_count": int(len(high) + len(high_segments)),
         "min_altitude_z_m": limits.min_z,
         "terrain": scene.terrain.source if scene.terrain is not None else None,
         "orientation_mismatches": int((orient > ORIENTATION_TOLERANCE_DEG).sum()),
         "returns_to_start": bool(np.linalg.norm(route.positions[-1] - route.positions[0]) < 1e-6),
-        "safe": bool(len(unsafe) == 0 and len(low) == 0 and len(low_segments) == 0 and not ev.waypoint_inside.any()),
+        "safe": bool(len(unsafe) == 0 and len(low) == 0 and len(low_segments) == 0 and not ev.waypoint_inside.any()
+                     and len(near_ground) == 0 and len(high) == 0 and len(high_segments) == 0),
         "security_m": security,
         "d_opt_m": route.d_opt,
     }
@@ -305,6 +319,34 @@ def lowest_above_ground(points, limits: ViewLimits) -> np.ndarray:
     if limits.terrain is not None:
         return limits.terrain.lowest_above(p[:-1], p[1:])
     return np.minimum(p[:-1, 2], p[1:, 2]) - limits.ground_z
+
+
+def highest_above_ground(points, limits: ViewLimits) -> np.ndarray:
+    """Per segment of the polyline, its greatest height above the ground (flat or terrain)."""
+    p = np.asarray(points, dtype=float).reshape(-1, 3)
+    if len(p) < 2:
+        return np.zeros(0)
+    if limits.terrain is not None:
+        return limits.terrain.highest_above(p[:-1], p[1:])
+    return np.maximum(p[:-1, 2], p[1:, 2]) - limits.ground_z
+
+
+def ground_clearance(points, scene, security: float) -> tuple[float | None, np.ndarray]:
+    """Over terrain, the polyline's least distance from the ground's triangles in 3D (FCL where
+    a segment may come within ``security``) and the segments that come closer than it.
+
+    Returns
+    -------
+    clearance : float or None
+        None over flat ground (there the height above it is the distance).
+    near : (k,) int
+        Segments closer than ``security`` to the ground.
+    """
+    p = np.asarray(points, dtype=float).reshape(-1, 3)
+    if scene.terrain is None or len(p) < 2:
+        return None, np.zeros(0, np.int64)
+    dist, _mesh, _exact = scene.ground_clearance_model(security).polyline_clearance(p, security)
+    return float(dist.min()), np.flatnonzero(dist < security - 1e-6 * max(1.0, security))
 
 
 def _fmt(v, unit="") -> str:
@@ -337,6 +379,12 @@ def format_metrics(m: dict) -> str:
                                 f"{_fmt(m.get('lowest_above_ground_m'), ' m')} above "
                                 f"{'the terrain' if m.get('terrain') else 'flat ground'}, minimum "
                                 f"{_fmt(m.get('min_altitude_m'), ' m')})"),
+        *([("ground clearance", f"{_fmt(m['ground_clearance_m'], ' m')} from the terrain in 3D, "
+                                f"{m['segments_near_ground_count']} segments closer than the security distance")]
+          if m.get("ground_clearance_m") is not None else []),
+        *([("altitude ceiling", f"{_fmt(m['max_altitude_m'], ' m')} above the ground: highest "
+                                f"{_fmt(m.get('highest_above_ground_m'), ' m')}, {m['above_ceiling_count']} "
+                                "waypoints or segments above it")] if m.get("max_altitude_m") is not None else []),
         ("orientation mismatches", str(m["orientation_mismatches"])),
         ("coverage of reachable", f"{m['coverage_pct']:.2f} % (checked every {m['sample_spacing_m']:.2f} m)"),
         (f"seen within {SHARP_INCIDENCE_DEG:g} deg", f"{m['sharp_view_pct']:.1f} % of the covered surface"

@@ -20,6 +20,7 @@ from coverplan.geometry.geo import check_crs
 from coverplan.io import GEOGRAPHIC_FORMATS, export_route, parse_formats, read_mission
 from coverplan.io.load import _check_geodetic_origin, load_scene
 from coverplan.job import run_job, write_pictures
+from coverplan.planning.settings import DEFAULT_CEILING_M
 from coverplan.progress import Progress
 from coverplan.sfm.simulate import Simulation, simulate
 from coverplan.shots.reconstructability import MatchRule
@@ -152,6 +153,8 @@ def cmd_evaluate(args) -> int:
         route = Route.load(args.route)
     else:
         route = _mission_route(args, scene)
+    if args.max_altitude is not ROUTE_CEILING:  # judged against a ceiling given here instead of the route's own
+        route.params["max_altitude_m"] = args.max_altitude
     progress = Progress(bars=not args.json)
     with progress.stage("evaluate", total=len(route.shots), unit="shot") as update:
         ev = evaluate(route, scene, spacing=args.spacing, progress=update)
@@ -244,12 +247,25 @@ def _plan_options(args) -> dict:
     """planner.plan's keyword arguments from the planning flags ``plan`` and ``batch`` share."""
     return dict(gsd=args.gsd, security=args.security, min_views=args.min_views,
                 min_triangulation_deg=args.min_triangulation_deg, rule=args.rule, match=_match_rule(args),
-                max_incidence_deg=args.max_incidence_deg, min_altitude=args.min_altitude, spacing=args.spacing,
+                max_incidence_deg=args.max_incidence_deg, min_altitude=args.min_altitude, max_altitude=args.max_altitude,
+                spacing=args.spacing,
                 gimbal_pitch_range_deg=_gimbal(args), drone=_drone(args), flight_model=_flight_model(args),
                 max_flight_min=args.max_flight_min,
                 lp_time_limit=args.lp_time_limit, surface_classes=args.only, pose_margin=args.margin,
                 max_memory=None if args.max_memory_gb is None
                 else check_positive("--max-memory-gb", args.max_memory_gb) * 1e9)
+
+
+ROUTE_CEILING = object()  # evaluate's default: the ceiling the route records
+
+
+def _ceiling(text: str) -> float | None:
+    if text.strip().lower() == "none":
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected metres or 'none', got {text!r}") from None
 
 
 def _gimbal(args):
@@ -429,6 +445,9 @@ def _add_planning_args(p):
     p.add_argument("--max-incidence-deg", type=float, default=70.0)
     p.add_argument("--min-altitude", type=float, default=None, metavar="M",
                    help="lowest flight height above the ground (default: the security distance)")
+    p.add_argument("--max-altitude", type=_ceiling, default=DEFAULT_CEILING_M, metavar="M|none",
+                   help=f"altitude ceiling above the ground under the drone (default {DEFAULT_CEILING_M:g} m, the EU, "
+                        "UK and US limit; 'none': no ceiling)")
     p.add_argument("--drone", default=None, metavar="NAME",
                    help="drone profile: camera, gimbal range, speeds, battery (see 'coverplan drones')")
     p.add_argument("--max-flight-min", type=float, default=None, metavar="MIN",
@@ -487,6 +506,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="for missions: the security distance to judge the flight by")
     p.add_argument("--spacing", type=float, default=None, metavar="M",
                    help="surface sample spacing in metres (default 0.25, with a seed the planner does not use)")
+    p.add_argument("--max-altitude", type=_ceiling, default=ROUTE_CEILING, metavar="M|none",
+                   help="judge against this altitude ceiling above the ground (default: the route's own; "
+                        "missions from other apps: none)")
     p.add_argument("--json", action="store_true", help="print the metrics as JSON")
     p.add_argument("--strict", action="store_true",
                    help="exit 1 when the route is unsafe or coverage is below --min-coverage")

@@ -15,9 +15,13 @@ def plan_summary(route) -> str:
         ("uncovered samples", f"{len(route.uncovered)}"),
         ("d_opt / standoff", f"{m['d_opt_m']:.2f} m / {m['standoff_m']:.2f} m"),
         ("ground", f"terrain {route.params['terrain']}; minimum altitude "
-                   f"{route.params.get('min_altitude_m', route.security):g} m above it along every segment"
+                   f"{route.params.get('min_altitude_m', route.security):g} m above it along every segment, the "
+                   f"security distance from it in 3D"
                    if route.params.get("terrain") else
                    f"flat at z {route.takeoff_z:.2f} (no terrain given: --terrain DTM.tif)"),
+        ("ceiling", f"{route.params['max_altitude_m']:g} m above the ground (highest "
+                    f"{float((route.positions[:, 2] - _ground(route)).max()):.1f} m)"
+                    if route.params.get("max_altitude_m") else "none"),
         ("planning time", f"{m['planning_time_s']:.2f} s"),
     ]
     ev = m.get("evaluation")
@@ -36,6 +40,11 @@ def plan_summary(route) -> str:
         rows.append(("  note", note))
     width = max(len(r[0]) for r in rows)
     return "\n".join(f"{a.ljust(width)}  {b}" for a, b in rows)
+
+
+def _ground(route):
+    """The ground under each waypoint: the terrain's, recorded in the route, or flat."""
+    return route.ground_z if route.ground_z is not None else route.params.get("ground_z_m", 0.0)
 
 
 def _flight_rows(route) -> list[tuple[str, str]]:

@@ -13,6 +13,7 @@ from coverplan.errors import ParameterError, PlanningError
 from coverplan.shots.reconstructability import MatchRule
 
 RULES = ("sfm", "thesis")
+DEFAULT_CEILING_M = 120.0  # EU (EASA open category), UK CAA, US FAA Part 107: 120 m / 400 ft above the ground
 
 
 @dataclass(frozen=True)
@@ -60,6 +61,9 @@ class PlanSettings:
     pose_margin : {"field", "none"}
         "field" judges frames and pair angles with the drone's own pose error (margin.py);
         "none" with the rules as given.
+    max_altitude : float or None
+        The ceiling, m above the ground under the drone (120 m: the EU, UK and US limit);
+        None: none. Surface seen only from above it is reported, not planned.
     """
 
     gsd: float
@@ -79,6 +83,7 @@ class PlanSettings:
     max_memory: float | None = None
     surface_classes: tuple | None = field(default=None)
     pose_margin: str = "field"
+    max_altitude: float | None = DEFAULT_CEILING_M
 
     def __post_init__(self):
         def put(name, value):
@@ -110,6 +115,11 @@ class PlanSettings:
             put("max_flight_min", check_positive("max flight minutes", self.max_flight_min))
         if self.surface_classes is not None:
             put("surface_classes", tuple(self.surface_classes))
+        if self.max_altitude is not None:
+            put("max_altitude", check_positive("altitude ceiling (--max-altitude)", self.max_altitude))
+            if self.max_altitude <= self.floor:
+                raise ParameterError(f"the altitude ceiling (--max-altitude) {self.max_altitude:g} m is not above the "
+                                     f"minimum altitude {self.floor:g} m")
 
     @property
     def floor(self) -> float:

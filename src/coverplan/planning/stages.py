@@ -131,7 +131,8 @@ def resolve(scene, camera: Camera, settings: PlanSettings, drone: DroneProfile |
     if max_flight_min is None and drone is not None:
         max_flight_min = drone.usable_flight_min
     limits = scene_limits(scene, security=settings.security, d_opt=d_opt, max_incidence_deg=settings.max_incidence_deg,
-                          min_altitude=settings.floor, pitch_range_deg=pitch_range, vfov_deg=camera.vfov_deg)
+                          min_altitude=settings.floor, pitch_range_deg=pitch_range, vfov_deg=camera.vfov_deg,
+                          max_altitude=settings.max_altitude)
     extra = safety_margin(settings.security)
     # The rules judged with the drone's pose error: a narrower frame, narrower pair angles.
     asked_camera, match, min_tri = camera, settings.match, float(settings.min_triangulation_deg)
@@ -383,7 +384,7 @@ def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progr
         with progress.stage("battery flights"):
             flights = split_flights(fg, order, closure, fly_order, setup.flight_model, stops,
                                     60.0 * setup.max_flight_min, scene.clearance_model(limits.security),
-                                    limits.security + extra, floor=limits.segments_above_floor)
+                                    limits.security + extra, floor=limits.segments_in_band)
     return Flight(flights, shots, chosen, check, uncovered, h, single_s, single_path)
 
 
@@ -526,7 +527,7 @@ def _legs(fg: FlightGraph, order, pred, direct, scene, limits, margin) -> list[t
         for x, y in zip(hops[:-1], hops[1:]):
             nodes.extend(leg(fg, fg.special(x), fg.special(y), direct[x, y])[1:])
         pts = fg.points[np.array(nodes)]
-        keep = shortcut(pts, clearance, radius, floor=limits.segments_above_floor)
+        keep = shortcut(pts, clearance, radius, floor=limits.segments_in_band)
         for k in keep[1:-1]:
             out.append((pts[k], -1))
         out.append((pts[-1], v))
@@ -556,7 +557,7 @@ def _route(flights, shots, camera, scene, limits, settings: PlanSettings, spacin
               "min_triangulation_deg": float(settings.min_triangulation_deg),
               "max_incidence_deg": settings.max_incidence_deg, "min_altitude_m": settings.floor,
               "ground_z_m": scene.ground_z, "gimbal_pitch_range_deg": list(limits.pitch_range_deg),
-              "sample_spacing_m": spacing}
+              "sample_spacing_m": spacing, "max_altitude_m": settings.max_altitude}
     ground = None
     if scene.terrain is not None:
         ground = scene.terrain.height(pos[:, :2])
@@ -570,9 +571,9 @@ def _final_check(route: Route, scene, limits: ViewLimits) -> None:
     clearance = scene.clearance_model(limits.security)
     p = route.positions
     ok = clearance.segments_clear(p[:-1], p[1:], limits.security) if len(p) > 1 else np.array([True])
-    low = ~limits.above_floor(p)
+    low = ~limits.in_band(p)
     if len(p) > 1:
-        low[1:] |= ~limits.segments_above_floor(p[:-1], p[1:])
+        low[1:] |= ~limits.segments_in_band(p[:-1], p[1:])
     if not ok.all() or low.any():
         raise RuntimeError(f"internal error: planned route breaks the security distance on "
                            f"{int((~ok).sum())} segments / altitude at {int(low.sum())} waypoints or segments")

@@ -15,7 +15,7 @@ import numpy as np
 
 from coverplan.world.terrain import Terrain
 
-OK, LOW, GIMBAL, OCCLUDED, UNSAFE = 0, 1, 2, 3, 4
+OK, LOW, GIMBAL, OCCLUDED, UNSAFE, HIGH = 0, 1, 2, 3, 4, 5
 GROUND = -2  # culprit index meaning the ground plane
 
 
@@ -51,6 +51,10 @@ class ViewLimits:
     vfov_deg: float
     ground_z: float = -np.inf
     terrain: Terrain | None = None  # with it, min_z is the lowest floor and the floor follows the ground
+    # Over terrain: the lowest heights ``security`` clear of the ground in 3D (the floor rises
+    # to it over slopes, where the minimum altitude alone comes closer than that).
+    envelope: Terrain | None = None
+    max_altitude: float = np.inf  # the ceiling, m above the ground under the drone
 
     @property
     def min_altitude(self) -> float:
@@ -64,7 +68,10 @@ class ViewLimits:
     def floor_at(self, xy) -> np.ndarray:
         """The lowest height the drone may fly at over each (x, y)."""
         xy = np.asarray(xy, dtype=float).reshape(-1, 2)
-        return self.terrain.height(xy) + self.min_altitude if self.terrain is not None else np.full(len(xy), self.min_z)
+        if self.terrain is None:
+            return np.full(len(xy), self.min_z)
+        floor = self.terrain.height(xy) + self.min_altitude
+        return floor if self.envelope is None else np.maximum(floor, self.envelope.height(xy))
 
     def above_floor(self, points, tol: float = 1e-9) -> np.ndarray:
         points = np.asarray(points, dtype=float).reshape(-1, 3)
@@ -72,12 +79,46 @@ class ViewLimits:
 
     def segments_above_floor(self, starts, ends, tol: float = 1e-6) -> np.ndarray:
         """Whether every point of each segment keeps the minimum altitude (over flat ground the
-        ends settle it; over terrain every crossing of the ground's grid is checked)."""
+        ends settle it; over terrain every crossing of the ground's grid is checked) and, over
+        terrain, the security distance from the ground in 3D."""
         starts = np.asarray(starts, dtype=float).reshape(-1, 3)
         ends = np.asarray(ends, dtype=float).reshape(-1, 3)
         if self.terrain is None:
             return (starts[:, 2] >= self.min_z - tol) & (ends[:, 2] >= self.min_z - tol)
-        return self.terrain.segments_above(starts, ends, self.min_altitude, tol)
+        ok = self.terrain.segments_above(starts, ends, self.min_altitude, tol)
+        if self.envelope is not None and ok.any():
+            ok[ok] = self.envelope.segments_above(starts[ok], ends[ok], 0.0, tol)
+        return ok
+
+    def below_ceiling(self, points, tol: float = 1e-9) -> np.ndarray:
+        points = np.asarray(points, dtype=float).reshape(-1, 3)
+        if not np.isfinite(self.max_altitude):
+            return np.ones(len(points), dtype=bool)
+        return points[:, 2] - self.ground_at(points[:, :2]) <= self.max_altitude + tol
+
+    def in_band(self, points, tol: float = 1e-9) -> np.ndarray:
+        """Where the drone may be: above the floor and below the ceiling."""
+        return self.above_floor(points, tol) & self.below_ceiling(points, tol)
+
+    def segments_below_ceiling(self, starts, ends, tol: float = 1e-6) -> np.ndarray:
+        """Whether every point of each segment stays below the ceiling (over flat ground the
+        ends settle it; over terrain every crossing of the ground's grid is checked)."""
+        starts = np.asarray(starts, dtype=float).reshape(-1, 3)
+        ends = np.asarray(ends, dtype=float).reshape(-1, 3)
+        if not np.isfinite(self.max_altitude):
+            return np.ones(len(starts), dtype=bool)
+        ok = self.below_ceiling(starts, tol) & self.below_ceiling(ends, tol)
+        if self.terrain is not None and ok.any():
+            ok[ok] = self.terrain.highest_above(starts[ok], ends[ok]) <= self.max_altitude + tol
+        return ok
+
+    def segments_in_band(self, starts, ends, tol: float = 1e-6) -> np.ndarray:
+        """Whether every point of each segment keeps above the floor and below the ceiling."""
+        ok = self.segments_above_floor(starts, ends, tol)
+        if np.isfinite(self.max_altitude) and ok.any():
+            ok[ok] = self.segments_below_ceiling(np.asarray(starts).reshape(-1, 3)[ok],
+                                                 np.asarray(ends).reshape(-1, 3)[ok], tol)
+        return ok
 
     def lowest_floor(self, lo_xy, hi_xy) -> float:
         """The lowest the drone may fly anywhere over the box [lo_xy, hi_xy]."""
@@ -116,6 +157,7 @@ def test_probes(scene, points, normals, owner, positions, rays, limits: ViewLimi
     # means "the gimbal could, the altitude floor forbids it" and the two reasons stay apart.
     status[~limits.elevation_ok(rays)] = GIMBAL
     status[(status == OK) & ~limits.above_floor(positions, tol=0.0)] = LOW
+    status[(status == OK) & ~limits.below_ceiling(positions, tol=0.0)] = HIGH
     start = points[owner] + normals[owner] * scene.epsilon * 4
     blocked = scene.rays.segments_blocked(start, positions)
     status[blocked] = OCCLUDED
@@ -137,7 +179,7 @@ def test_probes(scene, points, normals, owner, positions, rays, limits: ViewLimi
 
 
 def scene_limits(scene, *, security: float, d_opt: float, max_incidence_deg: float, min_altitude: float,
-                pitch_range_deg, vfov_deg: float) -> ViewLimits:
+                pitch_range_deg, vfov_deg: float, max_altitude: float | None = None) -> ViewLimits:
     """The limits over this scene's ground: flat at ``scene.ground_z``, or its terrain (then
     ``min_z`` is the lowest floor near the target and the floor follows the ground)."""
     ground = float(scene.ground_z)
@@ -145,8 +187,10 @@ def scene_limits(scene, *, security: float, d_opt: float, max_incidence_deg: flo
         lo, hi = scene.bounds("target")
         reach = d_opt + security
         ground = scene.terrain.lowest_in(lo[:2] - reach, hi[:2] + reach)
+    envelope = None if scene.terrain is None else scene.terrain.clearance_envelope(float(security))
     return ViewLimits(float(security), float(d_opt), float(max_incidence_deg), ground + float(min_altitude),
-                      tuple(float(v) for v in pitch_range_deg), float(vfov_deg), ground, scene.terrain)
+                      tuple(float(v) for v in pitch_range_deg), float(vfov_deg), ground, scene.terrain, envelope,
+                      np.inf if max_altitude is None else float(max_altitude))
 
 
 @dataclass
@@ -205,6 +249,9 @@ def explain(scene, status, culprit) -> str:
         # Both: the blocker in front and what crowds the way around it (often the same tree).
         return f"occluded by {most_common(status == OCCLUDED)}; {unsafe}" if (status == OCCLUDED).any() else unsafe
     low, gimbal = (status == LOW).any(), (status == GIMBAL).any()
+    if (status == HIGH).any() and not low:
+        return "visible only from above the altitude ceiling" + (
+            " or at a gimbal pitch outside its range" if gimbal else "")
     if low and gimbal:  # either setting may be what blocks: say both
         return "visible only from below the minimum altitude or at a gimbal pitch outside its range"
     if low:

@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import trimesh
+from scipy import ndimage
 
 from coverplan.errors import InputFileError, ParameterError
 from coverplan.geometry.raycast import RayCaster
@@ -122,6 +123,35 @@ class Terrain:
         rows = np.unique(np.append(np.arange(j0, j1 + 1, step), j1))
         return self._mesh_through(cols, rows)
 
+    def clearance_envelope(self, distance: float) -> "Terrain":
+        """The lowest heights ``distance`` clear of this ground in 3D, as a terrain of its grid.
+
+        A point on or above it is at least ``distance`` from every point of the ground's
+        surface, slopes and ridges included (a drone flying ``distance`` above a 40 deg bank
+        is only 0.77 ``distance`` from it). Built as a dilation of each cell's highest corner
+        by the ball's upper half, then each node the highest of its cells: on or above the true
+        envelope everywhere, by up to about a cell's rise; over flat ground exactly ``distance``
+        above it. Cached per distance.
+        """
+        cache = self.__dict__.setdefault("_envelopes", {})
+        key = round(float(distance), 9)
+        if key not in cache:
+            h = self.heights
+            cell_top = np.maximum.reduce([h[:-1, :-1], h[:-1, 1:], h[1:, :-1], h[1:, 1:]])
+            reach_i, reach_j = int(np.ceil(distance / self.dx)) + 1, int(np.ceil(distance / self.dy)) + 1
+            gap_x = np.maximum(np.abs(np.arange(-reach_i, reach_i + 1)) - 1, 0) * self.dx  # cell to cell
+            gap_y = np.maximum(np.abs(np.arange(-reach_j, reach_j + 1)) - 1, 0) * self.dy
+            gap = np.hypot(gap_y[:, None], gap_x[None, :])
+            within = gap <= distance
+            cap = np.sqrt(np.maximum(distance ** 2 - gap ** 2, 0.0))
+            top = ndimage.grey_dilation(cell_top, footprint=within, structure=np.where(within, cap, 0.0),
+                                        mode="nearest")
+            padded = np.pad(top, 1, mode="edge")
+            nodes = np.maximum.reduce([padded[:-1, :-1], padded[:-1, 1:], padded[1:, :-1], padded[1:, 1:]])
+            cache[key] = Terrain(self.x0, self.y0, self.dx, self.dy, nodes,
+                                 f"{self.source}, {distance:g} m clear in 3D")
+        return cache[key]
+
     def segments_above(self, starts, ends, altitude: float, tol: float = 1e-6,
                        max_checks: int = 4_000_000) -> np.ndarray:
         """Whether every point of each segment is at least ``altitude`` above the ground
@@ -144,6 +174,13 @@ class Terrain:
     def lowest_above(self, starts, ends, max_checks: int = 4_000_000) -> np.ndarray:
         """Each segment's lowest height above the ground (exact: at its ends or where it crosses
         a grid line or a cell's diagonal)."""
+        return self._extreme_above(starts, ends, np.minimum, np.inf, max_checks)
+
+    def highest_above(self, starts, ends, max_checks: int = 4_000_000) -> np.ndarray:
+        """Each segment's greatest height above the ground (exact, as ``lowest_above``)."""
+        return self._extreme_above(starts, ends, np.maximum, -np.inf, max_checks)
+
+    def _extreme_above(self, starts, ends, pick, empty: float, max_checks: int) -> np.ndarray:
         a = np.asarray(starts, dtype=float).reshape(-1, 3)
         b = np.asarray(ends, dtype=float).reshape(-1, 3)
         out = np.empty(len(a))
@@ -156,9 +193,9 @@ class Terrain:
             owner, t = self._breakpoints(u0[first:last], v0[first:last], u1[first:last], v1[first:last])
             p = a[first:last][owner] + t[:, None] * (b[first:last] - a[first:last])[owner]
             above = p[:, 2] - self.height(p[:, :2])
-            low = np.full(last - first, np.inf)
-            np.minimum.at(low, owner, above)
-            out[first:last] = low
+            extreme = np.full(last - first, empty)
+            pick.at(extreme, owner, above)
+            out[first:last] = extreme
             first = last
         return out
 
