@@ -46,6 +46,18 @@ def write_mesh(tmp_path):
 np.set_printoptions(precision=4, suppress=True)
 
 
+@pytest.fixture(scope="module")
+def seed_only_draws():
+    """Hypothesis draws from the test's seed alone: it also draws constants it finds in the
+    source of loaded modules outside the test folders, which made the drawn scenes depend on
+    the install (editable or not) and on which tests had run before in the worker."""
+    from hypothesis.internal.conjecture import providers
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(providers, "_get_local_constants", providers.Constants)
+        patch.setattr(providers, "CONSTANTS_CACHE", type(providers.CONSTANTS_CACHE)(1024))
+        yield
+
+
 # The jobs several test files plan, planned once per test process.
 
 @pytest.fixture(scope="session")

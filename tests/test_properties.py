@@ -133,14 +133,9 @@ def _random_scenes(seed_value: int):
     other scenes. No shrinking: a failing example is reported as found (shrinking one takes
     many minutes), in numbers that rebuild it.
 
-    Hypothesis also draws constants it finds in the source of the loaded modules outside the
-    test folders, which made the scenes depend on the install (editable or not) and on which
-    tests had run before in the worker: here it draws from the seed alone."""
+    The draws come from the seed alone (``seed_only_draws``)."""
 
-    def test(monkeypatch):
-        from hypothesis.internal.conjecture import providers
-        monkeypatch.setattr(providers, "_get_local_constants", providers.Constants)
-        monkeypatch.setattr(providers, "CONSTANTS_CACHE", type(providers.CONSTANTS_CACHE)(1024))
+    def test(seed_only_draws):
         # Evaluator's coverage per planned scene (hypothesis may draw one twice), and of those below 99.5 %.
         results: dict[tuple, float] = {}
         short: dict[tuple, float] = {}

@@ -119,6 +119,7 @@ def check_drawn_site(ground, house, tree_specs, camera, security, ratio, floor) 
                                            "min_altitude": floor * security})
 
 
+@pytest.mark.usefixtures("seed_only_draws")
 @seed(20261124)
 @settings(max_examples=EXAMPLES, deadline=None, database=None, phases=[Phase.explicit, Phase.generate],
           suppress_health_check=[HealthCheck.too_slow])

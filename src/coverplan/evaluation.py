@@ -13,6 +13,7 @@ import numpy as np
 
 from coverplan.errors import ParameterError
 from coverplan.flight.route import Route
+from coverplan.geometry.clearance import ClearanceModel
 from coverplan.shots.reachability import ViewLimits, reachability, scene_limits
 from coverplan.shots.reconstructability import (
     SHARP_INCIDENCE_DEG,
@@ -345,7 +346,11 @@ def ground_clearance(points, scene, security: float) -> tuple[float | None, np.n
     p = np.asarray(points, dtype=float).reshape(-1, 3)
     if scene.terrain is None or len(p) < 2:
         return None, np.zeros(0, np.int64)
-    dist, _mesh, _exact = scene.ground_clearance_model(security).polyline_clearance(p, security)
+    # The ground within reach of the flight, every node of the grid: exact where it matters.
+    reach = security + max(scene.terrain.dx, scene.terrain.dy)
+    ground = scene.terrain.mesh_within(p[:, :2].min(axis=0) - reach, p[:, :2].max(axis=0) + reach, max_cells=None)
+    edge = float(np.clip(security / 2.0, scene.extent / 2000.0, max(scene.extent / 20.0, 1e-3)))
+    dist, _mesh, _exact = ClearanceModel([ground], cover_edge=edge).polyline_clearance(p, security)
     return float(dist.min()), np.flatnonzero(dist < security - 1e-6 * max(1.0, security))
 
 

@@ -96,16 +96,6 @@ class Scene:
             self._clearance[key] = ClearanceModel(self.meshes, rays=self.rays, cover_edge=edge)
         return self._clearance[key]
 
-    def ground_clearance_model(self, security: float) -> ClearanceModel:
-        """Distances from the terrain's triangles alone (the evaluator's 3D ground check)."""
-        if self.terrain is None:
-            raise ValueError("the scene has no terrain")
-        edge = float(np.clip(security / 2.0, self.extent / 2000.0, max(self.extent / 20.0, 1e-3)))
-        key = ("ground", round(edge, 6))
-        if key not in self._clearance:
-            self._clearance[key] = ClearanceModel([self.terrain.mesh], cover_edge=edge)
-        return self._clearance[key]
-
     def ground_at(self, xy) -> np.ndarray:
         """Ground height under each (x, y): the terrain's, or the flat ``ground_z``."""
         xy = np.asarray(xy, dtype=float).reshape(-1, 2)

@@ -111,14 +111,15 @@ class Terrain:
         faces = np.vstack([np.column_stack([a, b, c]), np.column_stack([b, d, c])])
         return trimesh.Trimesh(vertices, faces, process=False)
 
-    def mesh_within(self, lo_xy, hi_xy, max_cells: int = 40_000) -> trimesh.Trimesh:
+    def mesh_within(self, lo_xy, hi_xy, max_cells: int | None = 40_000) -> trimesh.Trimesh:
         """The ground over the box ``lo_xy``-``hi_xy`` (and one node beyond) through every k-th
-        grid node, k such that at most about ``max_cells`` cells remain: for pictures."""
+        grid node, k such that at most about ``max_cells`` cells remain (for pictures; None:
+        every node, the ground exactly)."""
         ny, nx = self.shape
         u, v = self._grid_coords(np.array([lo_xy[:2], hi_xy[:2]], dtype=float))
         i0, i1 = int(np.clip(np.floor(u[0]) - 1, 0, nx - 2)), int(np.clip(np.ceil(u[1]) + 1, 1, nx - 1))
         j0, j1 = int(np.clip(np.floor(v[0]) - 1, 0, ny - 2)), int(np.clip(np.ceil(v[1]) + 1, 1, ny - 1))
-        step = max(1, int(np.ceil(np.sqrt(max(i1 - i0, 1) * max(j1 - j0, 1) / max_cells))))
+        step = 1 if max_cells is None else max(1, int(np.ceil(np.sqrt(max(i1 - i0, 1) * max(j1 - j0, 1) / max_cells))))
         cols = np.unique(np.append(np.arange(i0, i1 + 1, step), i1))  # the box's edge kept
         rows = np.unique(np.append(np.arange(j0, j1 + 1, step), j1))
         return self._mesh_through(cols, rows)
