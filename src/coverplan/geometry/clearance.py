@@ -179,7 +179,19 @@ class ClearanceModel:
 
     # -- yes/no ---------------------------------------------------------------------
     def points_clear(self, points, radius: float, check_inside: bool = True) -> np.ndarray:
-        """True where a point is outside every mesh and at least ``radius`` from all of them."""
+        """Which points keep ``radius`` from every mesh.
+
+        Parameters
+        ----------
+        points : (n, 3) float
+        radius : float
+        check_inside : bool
+            Also refuse points inside a closed mesh (by ray parity; needs ``rays``).
+
+        Returns
+        -------
+        clear : (n,) bool
+        """
         points = np.asarray(points, dtype=float).reshape(-1, 3)
         upper, _ = self.kd_distance(points, radius + self.cover_radius * 1.01 + 1e-9)
         ok = upper - self.cover_radius >= radius
@@ -201,7 +213,19 @@ class ClearanceModel:
 
     def segments_clear(self, starts, ends, radius: float, lower_start=None, lower_end=None,
                        exact: bool = True) -> np.ndarray:
-        """True where every point of segment start->end keeps ``radius`` from all meshes.
+        """Which segments keep ``radius`` from every mesh at every point.
+
+        Parameters
+        ----------
+        starts, ends : (n, 3) float
+        radius : float
+        lower_start, lower_end : (n,) float, optional
+            Known lower bounds of the endpoints' clearance (saves their KD-tree queries).
+        exact : bool
+
+        Returns
+        -------
+        clear : (n,) bool
 
         Assumes the endpoints are outside the meshes (a segment that enters one crosses its
         surface and so fails). A segment whose endpoints' clearance bounds ``c1``, ``c2``
