@@ -14,15 +14,15 @@ from coverplan.flight.route import Route
 from coverplan.world.scene import scene_from_meshes
 from tests.helpers import box
 
-CEILING = 30.0
+CEILING = 25.0
 
 
 @pytest.fixture(scope="module")
 def tower(tmp_path_factory):
-    """A 10 x 10 x 60 m tower planned for a Phantom 4 Pro at 1 cm/px under a 30 m ceiling."""
+    """An 8 x 8 x 45 m tower planned for a Phantom 4 Pro at 1 cm/px under a 25 m ceiling."""
     folder = tmp_path_factory.mktemp("tower")
     path = folder / "tower.obj"
-    box(0, 0, 0, 10, 10, 60).export(path)
+    box(0, 0, 0, 8, 8, 45).export(path)
     out = folder / "tower.json"
     assert main(["plan", str(path), "--camera", "phantom4pro", "--gsd", "0.01", "--security", "4",
                  "--max-altitude", str(CEILING), "--quiet", "-o", str(out)]) == 0
@@ -40,7 +40,7 @@ def test_the_top_it_cannot_reach_is_reported(tower, capsys):
     path, out, route = tower
     above = [u for u in route.uncovered if "ceiling" in u["reason"]]
     assert above, {u["reason"] for u in route.uncovered}
-    # What the ceiling hides lies high up: the roof (60 m) and the top of the walls.
+    # What the ceiling hides lies high up: the roof (45 m) and the top of the walls.
     assert min(np.asarray(u["position"])[2] for u in above) > CEILING
     capsys.readouterr()
     assert main(["evaluate", str(out), "--target", str(path), "--json"]) == 0
@@ -50,7 +50,7 @@ def test_the_top_it_cannot_reach_is_reported(tower, capsys):
     assert m["coverage_pct"] >= 99.5  # of what can be reached below the ceiling
     reasons = {g["reason"]: g["area_m2"] for g in m["unreachable"]}
     hidden = sum(a for r, a in reasons.items() if "ceiling" in r)
-    assert hidden >= 100.0  # the 100 m2 roof at least
+    assert hidden >= 0.95 * 64.0  # the 64 m2 roof, as the samples measure it
 
 
 def test_the_evaluator_judges_a_route_against_the_ceiling_it_records():
