@@ -53,8 +53,9 @@ def seed_only_draws():
     the install (editable or not) and on which tests had run before in the worker."""
     from hypothesis.internal.conjecture import providers
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(providers, "_get_local_constants", providers.Constants)
-        patch.setattr(providers, "CONSTANTS_CACHE", type(providers.CONSTANTS_CACHE)(1024))
+        if hasattr(providers, "_get_local_constants"):  # hypothesis >= 6.131: internals, hence the guard
+            patch.setattr(providers, "_get_local_constants", providers.Constants)
+            patch.setattr(providers, "CONSTANTS_CACHE", type(providers.CONSTANTS_CACHE)(1024))
         yield
 
 
