@@ -215,12 +215,11 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
     unsafe = np.flatnonzero(ev.segment_clearance < security - tol)
     p = route.positions
     low = np.flatnonzero(~limits.above_floor(p, ALTITUDE_TOLERANCE_M))
-    lowest = lowest_above_ground(p, limits)
+    lowest, highest = heights_above_ground(p, limits)
     low_segments = np.flatnonzero(lowest < limits.min_altitude - ALTITUDE_TOLERANCE_M)
     to_ground, near_ground = ground_clearance(p, scene, security)
     high = np.flatnonzero(~limits.below_ceiling(p, ALTITUDE_TOLERANCE_M))
-    high_segments = np.flatnonzero(~limits.segments_below_ceiling(p[:-1], p[1:], ALTITUDE_TOLERANCE_M)) \
-        if len(p) > 1 else np.zeros(0, np.int64)
+    high_segments = np.flatnonzero(highest > limits.max_altitude + ALTITUDE_TOLERANCE_M)
     orient = route.orientation_errors_deg()
     seg_k = int(np.argmin(ev.segment_clearance)) if len(ev.segment_clearance) else None
     p_outliers = (ev.views >= 2) & (ev.widest_deg < float(route.param("min_triangulation_deg")))
@@ -298,7 +297,7 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
         "ground_clearance_m": to_ground,  # the flight's least distance from the terrain in 3D (None: flat)
         "segments_near_ground_count": int(len(near_ground)),
         "max_altitude_m": limits.max_altitude if np.isfinite(limits.max_altitude) else None,
-        "highest_above_ground_m": float(highest_above_ground(p, limits).max()) if len(p) > 1 else
+        "highest_above_ground_m": float(highest.max()) if len(highest) else
         float(p[0, 2] - limits.ground_at(p[:1, :2])[0]),
         "above_ceiling_count": int(len(high) + len(high_segments)),
         "min_altitude_z_m": limits.min_z,
@@ -312,24 +311,21 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
     }
 
 
-def lowest_above_ground(points, limits: ViewLimits) -> np.ndarray:
-    """Per segment of the polyline, its lowest height above the ground (flat or terrain)."""
+def heights_above_ground(points, limits: ViewLimits) -> tuple[np.ndarray, np.ndarray]:
+    """Per segment of the polyline, its lowest and its greatest height above the ground (flat
+    or terrain: at every crossing of the ground's grid).
+
+    Returns
+    -------
+    lowest, highest : (n - 1,) float
+    """
     p = np.asarray(points, dtype=float).reshape(-1, 3)
     if len(p) < 2:
-        return np.zeros(0)
+        return np.zeros(0), np.zeros(0)
     if limits.terrain is not None:
-        return limits.terrain.lowest_above(p[:-1], p[1:])
-    return np.minimum(p[:-1, 2], p[1:, 2]) - limits.ground_z
-
-
-def highest_above_ground(points, limits: ViewLimits) -> np.ndarray:
-    """Per segment of the polyline, its greatest height above the ground (flat or terrain)."""
-    p = np.asarray(points, dtype=float).reshape(-1, 3)
-    if len(p) < 2:
-        return np.zeros(0)
-    if limits.terrain is not None:
-        return limits.terrain.highest_above(p[:-1], p[1:])
-    return np.maximum(p[:-1, 2], p[1:, 2]) - limits.ground_z
+        return limits.terrain.lowest_above(p[:-1], p[1:]), limits.terrain.highest_above(p[:-1], p[1:])
+    z = p[:, 2] - limits.ground_z
+    return np.minimum(z[:-1], z[1:]), np.maximum(z[:-1], z[1:])
 
 
 def ground_clearance(points, scene, security: float) -> tuple[float | None, np.ndarray]:
@@ -349,8 +345,7 @@ def ground_clearance(points, scene, security: float) -> tuple[float | None, np.n
     # The ground within reach of the flight, every node of the grid: exact where it matters.
     reach = security + max(scene.terrain.dx, scene.terrain.dy)
     ground = scene.terrain.mesh_within(p[:, :2].min(axis=0) - reach, p[:, :2].max(axis=0) + reach, max_cells=None)
-    edge = float(np.clip(security / 2.0, scene.extent / 2000.0, max(scene.extent / 20.0, 1e-3)))
-    dist, _mesh, _exact = ClearanceModel([ground], cover_edge=edge).polyline_clearance(p, security)
+    dist, _mesh, _exact = ClearanceModel([ground], cover_edge=scene.cover_edge(security)).polyline_clearance(p, security)
     return float(dist.min()), np.flatnonzero(dist < security - 1e-6 * max(1.0, security))
 
 

@@ -88,9 +88,13 @@ class Scene:
     def rays(self):
         return RayCaster(self.meshes, epsilon=self.epsilon, sheets=[self.terrain.mesh] if self.terrain else [])
 
+    def cover_edge(self, security: float) -> float:
+        """The clearance models' surface-cover spacing for one security distance."""
+        return float(np.clip(security / 2.0, self.extent / 2000.0, max(self.extent / 20.0, 1e-3)))
+
     def clearance_model(self, security: float):
         """Clearance queries tuned for one security distance (cached per distance)."""
-        edge = float(np.clip(security / 2.0, self.extent / 2000.0, max(self.extent / 20.0, 1e-3)))
+        edge = self.cover_edge(security)
         key = round(edge, 6)
         if key not in self._clearance:
             self._clearance[key] = ClearanceModel(self.meshes, rays=self.rays, cover_edge=edge)
