@@ -97,6 +97,24 @@ ROWS = {
     "spacing <= 0": (lambda t: ["plan", L, *PLAN, "--spacing", "0", "-o", t / "r.json"], ["spacing"]),
     "ceiling below the minimum altitude": (lambda t: ["plan", L, *PLAN, "--max-altitude", "2", "-o", t / "r.json"],
                                            ["--max-altitude", "not above the minimum altitude"]),
+    "zone file that is not polygons": (lambda t: ["plan", L, *GEO, *PLAN, "--keep-out", _zone_file(
+        t, {"type": "LineString", "coordinates": [[13.4, 52.5], [13.401, 52.5]]}), "-o", t / "r.json"],
+        ["zone.geojson", "is a LineString, not a polygon"]),
+    "zone file that is not GeoJSON": (lambda t: ["plan", L, *GEO, *PLAN, "--keep-out", file_with(t, "zone.geojson",
+                                                 '{"type": "Topology"}'), "-o", t / "r.json"],
+                                      ["zone.geojson", "not a GeoJSON FeatureCollection"]),
+    "zones without a georeference": (lambda t: ["plan", L, *PLAN, "--keep-out", _zone_file(t, _square(13.4, 52.5)),
+                                                "-o", t / "r.json"],
+                                     ["zone.geojson is in WGS84", "--crs", "--geo-origin"]),
+    "keep-in zone without the start": (lambda t: ["plan", L, *GEO, *PLAN, "--keep-in", _zone_file(t, _square(
+        13.4, 52.5, 0.001)), "--start", "-90", "-150", "5", "-o", t / "r.json"],
+        ["start point", "outside keep-in zone 0", "must start inside it"]),
+    "keep-out zone over the whole target": (lambda t: ["plan", L, *GEO, *PLAN, "--keep-out", _zone_file(
+        t, _square(13.4, 52.5, 0.002)), "-o", t / "r.json"],
+        ["keep-out zone 0 covers the whole target", "nothing could be photographed"]),
+    "zone floor above its ceiling": (lambda t: ["plan", L, *GEO, *PLAN, "--keep-out", _zone_file(
+        t, _square(13.41, 52.5), floor=30, ceiling=10), "-o", t / "r.json"],
+        ["zone 0: floor 30 m is not below its ceiling 10 m"]),
     "contradictory units": (lambda t: ["plan", CITY / "lod2_buildings_v2.json.gz", "--building", HOUSE, "--units", "mm",
                                        *PLAN, "-o", t / "r.json"], ["--units mm", "contradicts", "EPSG:3068"]),
     "contradictory CRS": (lambda t: ["plan", CITY / "lod2_buildings_v2.json.gz", "--building", HOUSE, "--crs",
@@ -185,6 +203,20 @@ ROWS = {
     "route planned over terrain, evaluated without": (lambda t: ["evaluate", _terrain_route(t), "--target", L],
                                                       ["planned over the terrain dtm.tif", "--terrain"]),
 }
+
+
+GEO = ["--geo-origin", "52.5", "13.4", "40"]  # the L prism's frame on Earth, for zones in WGS84
+
+
+def _square(lon: float, lat: float, half: float = 0.0002) -> dict:
+    """A GeoJSON polygon: a square of ``half`` degrees about (lon, lat)."""
+    ring = [[lon - half, lat - half], [lon + half, lat - half], [lon + half, lat + half], [lon - half, lat + half]]
+    return {"type": "Polygon", "coordinates": [ring + ring[:1]]}
+
+
+def _zone_file(tmp_path, geometry: dict, **properties):
+    return file_with(tmp_path, "zone.geojson", json.dumps({"type": "FeatureCollection", "features": [
+        {"type": "Feature", "id": 0, "properties": properties, "geometry": geometry}]}))
 
 
 def _dtm(tmp_path, west: float = -50.0, crs=None):

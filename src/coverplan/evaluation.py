@@ -30,6 +30,7 @@ from coverplan.shots.surface import (
     sample_surface,
 )
 from coverplan.shots.visibility import imaging_pairs, pair_stats, view_rays
+from coverplan.world.zones import Zones
 
 ORIENTATION_TOLERANCE_DEG = 0.5
 ALTITUDE_TOLERANCE_M = 1e-3  # route files keep 0.1 mm; a floor that follows terrain is rarely a round number
@@ -46,15 +47,17 @@ def view_limits(route: Route, scene, rule: str = "strict") -> ViewLimits:
     lo, hi = route.params.get("gimbal_pitch_range_deg", (-90.0, 90.0))
     incidence = float(route.param("max_incidence_deg")) if rule == "strict" else 89.9
     ceiling = route.params.get("max_altitude_m")
+    # Reach is judged with the margin the planner kept from the zones; breaches (_metrics) exactly.
+    zones = Zones.from_list(route.params.get("zones")).grown(float(route.params.get("zone_margin_m") or 0.0))
     if scene.terrain is not None:
         return scene_limits(scene, security=route.security, d_opt=route.d_opt, max_incidence_deg=incidence,
                             min_altitude=float(min_alt), pitch_range_deg=(lo, hi), vfov_deg=route.camera.vfov_deg,
-                            max_altitude=ceiling)
+                            max_altitude=ceiling, zones=zones)
     return ViewLimits(security=route.security, d_opt=route.d_opt,
                       max_incidence_deg=incidence,
                       min_z=float(ground) + float(min_alt), pitch_range_deg=(float(lo), float(hi)),
                       vfov_deg=route.camera.vfov_deg, ground_z=float(ground),
-                      max_altitude=np.inf if ceiling is None else float(ceiling))
+                      max_altitude=np.inf if ceiling is None else float(ceiling), zones=zones)
 
 
 @dataclass
@@ -194,6 +197,27 @@ def shot_graph(route: Route, samples: SurfaceSamples, pairs) -> dict:
     return summary
 
 
+def _zone_breaches(positions: np.ndarray, zones: Zones) -> list[dict]:
+    """Every waypoint and segment in a keep-out zone or out of the keep-in region, exactly."""
+    if not zones:
+        return []
+    at = zones.point_breaches(positions)
+    out = [{"waypoint": int(k), "zone": zones.describe(at[k])} for k in np.flatnonzero(at >= 0)]
+    if len(positions) > 1:
+        along = zones.segment_breaches(positions[:-1], positions[1:])
+        out += [{"segment": int(k), "from": int(k), "to": int(k + 1), "zone": zones.describe(along[k])}
+                for k in np.flatnonzero(along >= 0)]
+    return out
+
+
+def _zone_distance(positions: np.ndarray, zones: Zones) -> float | None:
+    """The flight's least plan-view distance to a keep-out zone or the keep-in boundary."""
+    if not zones:
+        return None
+    ends = positions[1:] if len(positions) > 1 else positions
+    return float(zones.plan_distance(positions[:len(ends)], ends).min())
+
+
 def _stats(values) -> dict:
     values = np.asarray(values, dtype=float)
     if len(values) == 0:
@@ -220,6 +244,8 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
     to_ground, near_ground = ground_clearance(p, scene, security)
     high = np.flatnonzero(~limits.below_ceiling(p, ALTITUDE_TOLERANCE_M))
     high_segments = np.flatnonzero(highest > limits.max_altitude + ALTITUDE_TOLERANCE_M)
+    zones = Zones.from_list(route.params.get("zones"))
+    zone_breaches = _zone_breaches(p, zones)
     orient = route.orientation_errors_deg()
     seg_k = int(np.argmin(ev.segment_clearance)) if len(ev.segment_clearance) else None
     p_outliers = (ev.views >= 2) & (ev.widest_deg < float(route.param("min_triangulation_deg")))
@@ -300,12 +326,18 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
         "highest_above_ground_m": float(highest.max()) if len(highest) else
         float(p[0, 2] - limits.ground_at(p[:1, :2])[0]),
         "above_ceiling_count": int(len(high) + len(high_segments)),
+        "zones": [{"name": z.name, "kind": z.kind} for z in zones.zones],
+        "zone_margin_m": float(route.params.get("zone_margin_m") or 0.0) if zones else None,
+        "zone_breaches": zone_breaches[:50],
+        "zone_breach_count": len(zone_breaches),
+        "zone_distance_m": _zone_distance(p, zones),
         "min_altitude_z_m": limits.min_z,
         "terrain": scene.terrain.source if scene.terrain is not None else None,
         "orientation_mismatches": int((orient > ORIENTATION_TOLERANCE_DEG).sum()),
         "returns_to_start": bool(np.linalg.norm(route.positions[-1] - route.positions[0]) < 1e-6),
         "safe": bool(len(unsafe) == 0 and len(low) == 0 and len(low_segments) == 0 and not ev.waypoint_inside.any()
-                     and len(near_ground) == 0 and len(high) == 0 and len(high_segments) == 0),
+                     and len(near_ground) == 0 and len(high) == 0 and len(high_segments) == 0
+                     and len(zone_breaches) == 0),
         "security_m": security,
         "d_opt_m": route.d_opt,
     }
@@ -385,6 +417,11 @@ def format_metrics(m: dict) -> str:
         *([("altitude ceiling", f"{_fmt(m['max_altitude_m'], ' m')} above the ground: highest "
                                 f"{_fmt(m.get('highest_above_ground_m'), ' m')}, {m['above_ceiling_count']} "
                                 "waypoints or segments above it")] if m.get("max_altitude_m") is not None else []),
+        *([("zones", f"{len(m['zones'])} ({', '.join(z['kind'] + ' ' + z['name'] for z in m['zones'])}): "
+                     f"{m['zone_breach_count']} waypoints or segments breach them; the flight keeps "
+                     f"{_fmt(m['zone_distance_m'], ' m')} from them in plan view"
+                     + (f", first {m['zone_breaches'][0]['zone']}" if m['zone_breach_count'] else ""))]
+          if m.get("zones") else []),
         ("orientation mismatches", str(m["orientation_mismatches"])),
         ("coverage of reachable", f"{m['coverage_pct']:.2f} % (checked every {m['sample_spacing_m']:.2f} m)"),
         (f"seen within {SHARP_INCIDENCE_DEG:g} deg", f"{m['sharp_view_pct']:.1f} % of the covered surface"

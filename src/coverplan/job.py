@@ -9,6 +9,7 @@ from pathlib import Path
 from coverplan.evaluation import Evaluation, evaluate
 from coverplan.flight.route import Route
 from coverplan.io.formats import export_route
+from coverplan.io.zones import read_zones
 from coverplan.planning.planner import plan
 from coverplan.progress import Progress
 from coverplan.report import write_figures, write_html_report
@@ -55,10 +56,14 @@ def run_job(scene, camera, out, *, formats=(), export_options: dict | None = Non
     evaluated : bool
         Run the evaluator (always when a report or figures are asked).
     plan_options
-        ``plan``'s keyword arguments (PlanSettings fields, ``drone``, ``flight_model``).
+        ``plan``'s keyword arguments (PlanSettings fields, ``drone``, ``flight_model``), and
+        ``keep_out`` / ``keep_in``: zone files, read in the scene's frame (io/zones.py).
     """
     progress = progress or Progress()
     out = Path(out)
+    keep_out, keep_in = plan_options.pop("keep_out", ()), plan_options.pop("keep_in", ())
+    if keep_out or keep_in:
+        plan_options["zones"] = read_zones(keep_out, keep_in, scene)
     route = plan(scene, camera, start=start, progress=progress, **plan_options)
     ev = None
     if evaluated or report or plot:

@@ -19,6 +19,7 @@ from coverplan.flight.route import Route
 from coverplan.geometry.geo import check_crs
 from coverplan.io import GEOGRAPHIC_FORMATS, export_route, parse_formats, read_mission
 from coverplan.io.load import _check_geodetic_origin, load_scene
+from coverplan.io.zones import read_zones
 from coverplan.job import run_job, write_pictures
 from coverplan.planning.settings import DEFAULT_CEILING_M
 from coverplan.progress import Progress
@@ -155,6 +156,8 @@ def cmd_evaluate(args) -> int:
         route = _mission_route(args, scene)
     if args.max_altitude is not ROUTE_CEILING:  # judged against a ceiling given here instead of the route's own
         route.params["max_altitude_m"] = args.max_altitude
+    if args.keep_out or args.keep_in:  # judged against these zones instead of the route's own
+        route.params["zones"] = read_zones(args.keep_out, args.keep_in, scene).to_list()
     progress = Progress(bars=not args.json)
     with progress.stage("evaluate", total=len(route.shots), unit="shot") as update:
         ev = evaluate(route, scene, spacing=args.spacing, progress=update)
@@ -252,6 +255,7 @@ def _plan_options(args) -> dict:
                 gimbal_pitch_range_deg=_gimbal(args), drone=_drone(args), flight_model=_flight_model(args),
                 max_flight_min=args.max_flight_min,
                 lp_time_limit=args.lp_time_limit, surface_classes=args.only, pose_margin=args.margin,
+                keep_out=tuple(args.keep_out), keep_in=tuple(args.keep_in), zone_margin=args.zone_margin,
                 max_memory=None if args.max_memory_gb is None
                 else check_positive("--max-memory-gb", args.max_memory_gb) * 1e9)
 
@@ -448,6 +452,7 @@ def _add_planning_args(p):
     p.add_argument("--max-altitude", type=_ceiling, default=DEFAULT_CEILING_M, metavar="M|none",
                    help=f"altitude ceiling above the ground under the drone (default {DEFAULT_CEILING_M:g} m, the EU, "
                         "UK and US limit; 'none': no ceiling)")
+    _add_zone_args(p)
     p.add_argument("--drone", default=None, metavar="NAME",
                    help="drone profile: camera, gimbal range, speeds, battery (see 'coverplan drones')")
     p.add_argument("--max-flight-min", type=float, default=None, metavar="MIN",
@@ -474,6 +479,19 @@ def _add_planning_args(p):
                    help="also write flight files beside the route: qgc,wpl,litchi,wpml,kml,geojson,csv "
                         "(one per battery flight: NAME.f1.plan, ...)")
     _add_export_args(p)
+
+
+def _add_zone_args(p, judged: bool = False):
+    verb = "judge against" if judged else "never enter"
+    p.add_argument("--keep-out", nargs="+", default=[], metavar="ZONES",
+                   help=f"{verb} these polygons (GeoJSON/GeoPackage/Shapefile, WGS84 or the models' CRS; "
+                        "optional floor/ceiling properties in m above the ground)")
+    p.add_argument("--keep-in", nargs="+", default=[], metavar="ZONE",
+                   help=f"{'judge against' if judged else 'never leave'} the union of these polygons")
+    if not judged:
+        p.add_argument("--zone-margin", type=float, default=None, metavar="M",
+                       help="distance kept from the zones against the drone's position error (default: the drone's "
+                            "horizontal accuracy, 1.5 m without --drone)")
 
 
 def _add_export_args(p):
@@ -509,6 +527,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-altitude", type=_ceiling, default=ROUTE_CEILING, metavar="M|none",
                    help="judge against this altitude ceiling above the ground (default: the route's own; "
                         "missions from other apps: none)")
+    _add_zone_args(p, judged=True)
     p.add_argument("--json", action="store_true", help="print the metrics as JSON")
     p.add_argument("--strict", action="store_true",
                    help="exit 1 when the route is unsafe or coverage is below --min-coverage")

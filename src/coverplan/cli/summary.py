@@ -22,6 +22,9 @@ def plan_summary(route) -> str:
         ("ceiling", f"{route.params['max_altitude_m']:g} m above the ground (highest "
                     f"{float((route.positions[:, 2] - _ground(route)).max()):.1f} m)"
                     if route.params.get("max_altitude_m") else "none"),
+        *([("zones", ", ".join(f"{z['kind']} {z['name']}" for z in route.params["zones"])
+                     + f"; kept {route.params.get('zone_margin_m', 0.0):g} m clear of them")]
+          if route.params.get("zones") else []),
         ("planning time", f"{m['planning_time_s']:.2f} s"),
     ]
     ev = m.get("evaluation")

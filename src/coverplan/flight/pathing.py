@@ -63,7 +63,7 @@ def _lattice(clearance, limits, lo, hi, spacing: float, radius: float, far: floa
     upper, _owner = clearance.kd_distance(nodes, far)
     upper = np.minimum(upper, far)
     lower = np.maximum(upper - clearance.cover_radius, 0.0)
-    high = limits.in_band(nodes)
+    high = limits.allowed(nodes)
     ok = (lower >= radius) & high
     unsure = np.flatnonzero(~ok & (upper >= radius) & high)
     if len(unsure):
@@ -85,7 +85,7 @@ def _lattice(clearance, limits, lo, hi, spacing: float, radius: float, far: floa
     rows, cols = np.concatenate(rows), np.concatenate(cols)
     if len(rows):
         safe = clearance.segments_clear(nodes[rows], nodes[cols], radius, lower[rows], lower[cols], exact=False)
-        safe[safe] = limits.segments_in_band(nodes[rows[safe]], nodes[cols[safe]])
+        safe[safe] = limits.segments_allowed(nodes[rows[safe]], nodes[cols[safe]])
         rows, cols = rows[safe], cols[safe]
     return nodes, lower, upper, rows, cols
 
@@ -162,7 +162,7 @@ def build_lattice(scene, limits, box, start, *, margin: float, spacing: float,
             a = np.repeat(rim, 8).reshape(-1, 8)[live]
             b = j[live]
             safe = clearance.segments_clear(c_nodes[a], nodes[b], radius, c_lower[a], lower[b], exact=False)
-            safe[safe] = limits.segments_in_band(c_nodes[a[safe]], nodes[b[safe]])
+            safe[safe] = limits.segments_allowed(c_nodes[a[safe]], nodes[b[safe]])
             link_r, link_c = a[safe] + n_fine, b[safe]
         else:
             link_r = link_c = np.zeros(0, dtype=np.int64)
@@ -225,7 +225,7 @@ def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float
     if extra_r:
         er, ec = np.concatenate(extra_r), np.concatenate(extra_c)
         safe = clearance.segments_clear(points[er], points[ec], radius)  # exact: shots sit near the limit
-        safe[safe] = limits.segments_in_band(points[er[safe]], points[ec[safe]])
+        safe[safe] = limits.segments_allowed(points[er[safe]], points[ec[safe]])
         rows = np.concatenate([rows, er[safe]])
         cols = np.concatenate([cols, ec[safe]])
 

@@ -6,6 +6,7 @@ import numpy as np
 
 from coverplan.errors import ParameterError, PlanningError
 from coverplan.shots.reachability import ViewLimits
+from coverplan.world.zones import KEEP_OUT
 
 
 def default_start(scene, limits: ViewLimits, margin: float) -> np.ndarray:
@@ -13,15 +14,20 @@ def default_start(scene, limits: ViewLimits, margin: float) -> np.ndarray:
     lo, hi = scene.bounds("target")
     clearance = scene.clearance_model(limits.security)
     centre = (lo + hi) / 2.0
-    for extra in np.arange(1.0, 20.0, 1.0) * max(limits.d_opt, 1.0):
+    # With zones, nearer rings too: a keep-in zone round the property may be tight.
+    steps = np.arange(0.25, 20.0, 0.25) if limits.zones else np.arange(1.0, 20.0, 1.0)
+    for extra in steps * max(limits.d_opt, 1.0):
         angles = np.radians(np.arange(135.0, 135.0 + 360.0, 15.0))
         r = np.linalg.norm(hi[:2] - lo[:2]) / 2.0 + extra
         xy = np.column_stack([centre[0] + r * np.cos(angles), centre[1] + r * np.sin(angles)])
         pts = np.column_stack([xy, limits.floor_at(xy)])
         ok = clearance.points_clear(pts, limits.security + margin)
+        if limits.zones:
+            ok &= limits.zones.points_allowed(pts)
         if ok.any():
             return pts[np.argmax(ok)]
-    raise PlanningError("found no safe start point near the target; give one with --start X Y Z")
+    raise PlanningError("found no safe start point near the target" + (" outside the keep-out zones and inside the "
+                        "keep-in zone" if limits.zones else "") + "; give one with --start X Y Z")
 
 
 MAX_START_DISTANCE_M = 5_000.0  # farther than any battery flies: a coordinate mix-up
@@ -47,6 +53,12 @@ def check_start(scene, start, limits: ViewLimits) -> tuple[np.ndarray, list[str]
                      + (" above the terrain" if limits.terrain is not None else ""))
         start = start.copy()
         start[2] = floor
+    breach = limits.zones.point_breaches(start[None])[0] if limits.zones else -1
+    if breach >= 0:
+        zone = limits.zones.zones[breach]
+        where = "inside" if zone.kind == KEEP_OUT else "outside"
+        raise ParameterError(f"start point {start.round(2).tolist()} is {where} {zone.label}; "
+                             + ("start outside it" if zone.kind == KEEP_OUT else "the flight must start inside it"))
     inside = scene.rays.inside(start[None])[0]
     if inside >= 0:
         raise PlanningError(f"start point {start.round(2).tolist()} is inside {scene.describe(int(inside))}")

@@ -43,7 +43,7 @@ def read_footprint_model(path, height_attribute: str | None = None, height: floa
                              "or --height M")
     if height is not None and not (np.isfinite(height) and height > 0):
         raise ParameterError(f"--height must be a positive number of metres, got {height!r}")
-    geometries, ids, props, crs = _read(path)
+    geometries, ids, props, crs = read_features(path)
     geometries, crs = _projected(geometries, crs, path)
     objects = []
     for geom, fid, attrs in zip(geometries, ids, props):
@@ -135,7 +135,7 @@ def _number(attrs, name, fid, path) -> float:
         raise InputFileError(path, f"footprint {fid}: {name} is {attrs[name]!r}, not a number") from None
 
 
-def _read(path: Path):
+def read_features(path: Path):
     """(shapely geometries, ids, attribute dicts, CRS string or None)."""
     import shapely
     if path.suffix.lower() == ".geojson":

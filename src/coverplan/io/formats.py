@@ -22,6 +22,7 @@ from coverplan.io import (  # noqa: F401
     meshes,
     qgc,
     wpml,
+    zones,
 )
 from coverplan.io.registry import (
     CITY_READERS,

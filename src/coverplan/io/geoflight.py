@@ -48,3 +48,34 @@ def geo_flight(route) -> GeoFlight:
     return GeoFlight(np.asarray(lon), np.asarray(lat), alt_rel, np.asarray(h) if absolute else None, heading,
                      route.pitch_deg.copy(), route.shot.copy(), list(route.leg),
                      (float(home_lon[0]), float(home_lat[0]), float(home_h[0]) if absolute else None))
+
+
+@dataclass
+class GeoZone:
+    """A zone of the route on Earth: its rings (exterior first, then holes) per polygon, as
+    (n, 2) longitude, latitude without the closing point."""
+
+    name: str
+    kind: str  # "keep-out" or "keep-in"
+    polygons: list  # per polygon: list of (n, 2) float rings
+    floor_m: float | None  # local z, as the route records it
+    ceiling_m: float | None
+
+
+def geo_zones(route) -> list[GeoZone]:
+    """The route's keep-out and keep-in zones in WGS84 (none without a georeference)."""
+    zones = route.params.get("zones") or []
+    if not zones or not geo.has_georeference(route.frame):
+        return []
+    out = []
+    for z in zones:
+        polygons = []
+        for rings in z["polygons"]:
+            mine = []
+            for ring in rings:
+                ring = np.asarray(ring, dtype=float)[:-1]  # shapely closes rings; exporters close their own
+                lon, lat, _h = geo.to_lonlat(route.frame, np.column_stack([ring, np.zeros(len(ring))]))
+                mine.append(np.column_stack([lon, lat]))
+            polygons.append(mine)
+        out.append(GeoZone(z["name"], z["kind"], polygons, z.get("floor_m"), z.get("ceiling_m")))
+    return out

@@ -9,8 +9,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
+
 from coverplan.files import write_atomic
-from coverplan.io.geoflight import geo_flight
+from coverplan.io.geoflight import geo_flight, geo_zones
 from coverplan.io.registry import register_writer
 
 
@@ -27,6 +29,11 @@ def write_geojson(route, path, **_ignored) -> list[Path]:
                                         "heading_deg": round(float(f.heading_true[k]), 3),
                                         "gimbal_pitch_deg": round(float(f.pitch[k]), 3),
                                         "altitude_above_takeoff_m": round(float(f.alt_rel[k]), 3)}})
+    for zone in geo_zones(route):
+        rings = [[[[round(float(a), 9), round(float(b), 9)] for a, b in np.vstack([r, r[:1]])] for r in poly]
+                 for poly in zone.polygons]
+        features.append({"type": "Feature", "geometry": {"type": "MultiPolygon", "coordinates": rings},
+                         "properties": {"name": zone.name, "zone": zone.kind}})
     doc = {"type": "FeatureCollection", "features": features,
            "altitude_reference": "sea level" if f.alt_abs is not None else "take-off point"}
     return [write_atomic(path, json.dumps(doc))]

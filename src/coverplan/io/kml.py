@@ -10,7 +10,7 @@ import numpy as np
 
 from coverplan.files import write_atomic
 from coverplan.geometry import geo
-from coverplan.io.geoflight import geo_flight
+from coverplan.io.geoflight import geo_flight, geo_zones
 from coverplan.io.registry import register_writer
 
 KML_NS = "http://www.opengis.net/kml/2.2"
@@ -18,6 +18,21 @@ KML_NS = "http://www.opengis.net/kml/2.2"
 
 def _coord(lon, lat, alt) -> str:
     return f"{lon:.8f},{lat:.8f},{alt:.2f}"
+
+
+def _zone_placemark(zone, rings) -> str:
+    """A zone's polygon on the ground, its outline closed as KML wants it."""
+    def ring(r):
+        r = np.vstack([r, r[:1]])
+        return " ".join(_coord(a, b, 0.0) for a, b in r)
+    holes = "".join(f"<innerBoundaryIs><LinearRing><coordinates>{ring(h)}</coordinates></LinearRing></innerBoundaryIs>"
+                    for h in rings[1:])
+    return f"""  <Placemark>
+   <name>{escape(zone.kind)} zone {escape(zone.name)}</name>
+   <styleUrl>#{zone.kind}</styleUrl>
+   <Polygon><altitudeMode>clampToGround</altitudeMode><outerBoundaryIs><LinearRing><coordinates>{ring(rings[0])}</coordinates></LinearRing></outerBoundaryIs>{holes}</Polygon>
+  </Placemark>
+"""
 
 
 @register_writer("kml", ".kml")
@@ -53,6 +68,7 @@ def write_kml(route, path, name: str | None = None, **_ignored) -> list[Path]:
    <Polygon><altitudeMode>{"absolute" if absolute else "clampToGround"}</altitudeMode><outerBoundaryIs><LinearRing><coordinates>{coords}</coordinates></LinearRing></outerBoundaryIs></Polygon>
   </Placemark>
 """
+    zones = "".join(_zone_placemark(zone, rings) for zone in geo_zones(route) for rings in zone.polygons)
     text = f"""<?xml version="1.0" encoding="UTF-8"?>
 <kml xmlns="{KML_NS}">
  <Document>
@@ -60,7 +76,9 @@ def write_kml(route, path, name: str | None = None, **_ignored) -> list[Path]:
   <Style id="path"><LineStyle><color>ff2080ff</color><width>3</width></LineStyle></Style>
   <Style id="shot"><IconStyle><scale>0.6</scale></IconStyle><LabelStyle><scale>0</scale></LabelStyle></Style>
   <Style id="target"><LineStyle><color>ff404040</color><width>2</width></LineStyle><PolyStyle><color>66a0a0a0</color></PolyStyle></Style>
-{outline}  <Placemark>
+  <Style id="keep-out"><LineStyle><color>ff2020e0</color><width>2</width></LineStyle><PolyStyle><color>502020e0</color></PolyStyle></Style>
+  <Style id="keep-in"><LineStyle><color>ff20b020</color><width>2</width></LineStyle><PolyStyle><color>2020b020</color></PolyStyle></Style>
+{outline}{zones}  <Placemark>
    <name>flight ({int(f.shot.sum())} shots)</name>
    <styleUrl>#path</styleUrl>
    <LineString><altitudeMode>{mode}</altitudeMode><coordinates>{line}</coordinates></LineString>

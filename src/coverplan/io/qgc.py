@@ -17,8 +17,9 @@ import numpy as np
 from coverplan.errors import InputFileError
 from coverplan.files import read_json, write_atomic
 from coverplan.flight.missions import AMSL, TAKEOFF, MissionBuilder
-from coverplan.io.geoflight import geo_flight
+from coverplan.io.geoflight import geo_flight, geo_zones
 from coverplan.io.registry import register_mission_reader, register_writer
+from coverplan.world.zones import KEEP_IN
 
 NAV_WAYPOINT, NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF = 16, 20, 22
 DO_GIMBAL_MANAGER_PITCHYAW, IMAGE_START_CAPTURE = 1000, 2000
@@ -69,10 +70,28 @@ def write_plan(route, path, firmware: str = "px4", speed: float = 5.0, **_ignore
             "plannedHomePosition": [f.home[1], f.home[0], home_alt],
             "items": items,
         },
-        "geoFence": {"version": 2, "circles": [], "polygons": []},
+        "geoFence": {"version": 2, "circles": [], "polygons": fence_polygons(route)},
         "rallyPoints": {"version": 2, "points": []},
     }
     return [write_atomic(path, json.dumps(plan, indent=1))]
+
+
+def fence_polygons(route) -> list[dict]:
+    """The zones as QGroundControl geofence polygons: keep-in inclusion, keep-out exclusion.
+
+    A fence is a plan-view polygon from the ground up. A keep-out zone becomes its outline
+    (airspace over or under it and inside its holes is fenced off too: stricter than the zone);
+    a keep-in zone its outline as inclusion and its holes as exclusions.
+    """
+    out = []
+    for zone in geo_zones(route):
+        for rings in zone.polygons:
+            inclusion = zone.kind == KEEP_IN
+            out.append({"inclusion": inclusion, "polygon": [[float(b), float(a)] for a, b in rings[0]], "version": 1})
+            if inclusion:
+                out += [{"inclusion": False, "polygon": [[float(b), float(a)] for a, b in hole], "version": 1}
+                        for hole in rings[1:]]
+    return out
 
 
 @register_writer("wpl", ".waypoints")

@@ -37,6 +37,7 @@ Writer = Callable[..., list[Path]]
 READERS: dict[str, Reader] = {}
 MISSION_READERS: dict[str, Callable] = {}
 CITY_READERS: dict[str, Callable] = {}
+ZONE_READERS: dict[str, Callable] = {}
 WRITERS: dict[str, tuple[Writer, str]] = {}
 
 
@@ -68,3 +69,8 @@ def register_city_reader(*extensions: str):
 def register_mission_reader(*extensions: str):
     """Readers of flight-app missions (flight/missions.py): path -> Mission."""
     return _by_extension(MISSION_READERS, extensions)
+
+
+def register_zone_reader(*extensions: str):
+    """Readers of keep-out / keep-in zones (io/zones.py): (path, kind, scene) -> list of Zone."""
+    return _by_extension(ZONE_READERS, extensions)

@@ -11,6 +11,7 @@ from coverplan.equipment.camera import Camera, check_positive
 from coverplan.equipment.margin import MARGINS
 from coverplan.errors import ParameterError, PlanningError
 from coverplan.shots.reconstructability import MatchRule
+from coverplan.world.zones import Zones
 
 RULES = ("sfm", "thesis")
 DEFAULT_CEILING_M = 120.0  # EU (EASA open category), UK CAA, US FAA Part 107: 120 m / 400 ft above the ground
@@ -64,6 +65,14 @@ class PlanSettings:
     max_altitude : float or None
         The ceiling, m above the ground under the drone (120 m: the EU, UK and US limit);
         None: none. Surface seen only from above it is reported, not planned.
+    zones : Zones
+        Keep-out and keep-in prisms (world/zones.py, ``io.zones.read_zones``): no waypoint or
+        segment enters a keep-out zone or leaves the keep-in region. Surface seen only from
+        a zone is reported, not planned.
+    zone_margin : float or None
+        How far the flight keeps from the zones, m, against its own position error: keep-out
+        zones grown and keep-in zones shrunk by it, sideways and in height; None: the drone's
+        horizontal position accuracy (1.5 m, a GNSS drone's, without a drone profile).
     """
 
     gsd: float
@@ -84,6 +93,8 @@ class PlanSettings:
     surface_classes: tuple | None = field(default=None)
     pose_margin: str = "field"
     max_altitude: float | None = DEFAULT_CEILING_M
+    zones: Zones = field(default_factory=Zones)
+    zone_margin: float | None = None
 
     def __post_init__(self):
         def put(name, value):
@@ -120,6 +131,11 @@ class PlanSettings:
             if self.max_altitude <= self.floor:
                 raise ParameterError(f"the altitude ceiling (--max-altitude) {self.max_altitude:g} m is not above the "
                                      f"minimum altitude {self.floor:g} m")
+        if not isinstance(self.zones, Zones):
+            put("zones", Zones(tuple(self.zones)))
+        if self.zone_margin is not None and not (np.isfinite(self.zone_margin) and self.zone_margin >= 0):
+            raise ParameterError(f"the zone margin (--zone-margin) must be a number of metres >= 0, "
+                                 f"got {self.zone_margin!r}")
 
     @property
     def floor(self) -> float:

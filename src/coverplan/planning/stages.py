@@ -11,10 +11,11 @@ from concurrent.futures import Executor, Future
 from dataclasses import dataclass, replace
 
 import numpy as np
+import shapely
 from scipy.spatial import cKDTree
 
 from coverplan.equipment.camera import Camera
-from coverplan.equipment.drones import DroneProfile, security_shortfall
+from coverplan.equipment.drones import TYPICAL_GNSS, DroneProfile, security_shortfall
 from coverplan.equipment.flighttime import FlightModel
 from coverplan.equipment.margin import NO_MARGIN, PoseMargin, margin_for, tightened
 from coverplan.errors import ParameterError, PlanningError
@@ -132,7 +133,7 @@ def resolve(scene, camera: Camera, settings: PlanSettings, drone: DroneProfile |
         max_flight_min = drone.usable_flight_min
     limits = scene_limits(scene, security=settings.security, d_opt=d_opt, max_incidence_deg=settings.max_incidence_deg,
                           min_altitude=settings.floor, pitch_range_deg=pitch_range, vfov_deg=camera.vfov_deg,
-                          max_altitude=settings.max_altitude)
+                          max_altitude=settings.max_altitude, zones=settings.zones.grown(zone_margin(settings, drone)))
     extra = safety_margin(settings.security)
     # The rules judged with the drone's pose error: a narrower frame, narrower pair angles.
     asked_camera, match, min_tri = camera, settings.match, float(settings.min_triangulation_deg)
@@ -148,6 +149,7 @@ def resolve(scene, camera: Camera, settings: PlanSettings, drone: DroneProfile |
     spacing = default_spacing(scene, d_opt) if settings.spacing is None else settings.spacing
     distance = standoff(camera, limits, extra)
     check_size(scene, camera, spacing, distance, settings.max_memory)
+    check_zones(scene, limits)
     notes = []
     if start is None:
         start = default_start(scene, limits, extra)
@@ -384,7 +386,7 @@ def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progr
         with progress.stage("battery flights"):
             flights = split_flights(fg, order, closure, fly_order, setup.flight_model, stops,
                                     60.0 * setup.max_flight_min, scene.clearance_model(limits.security),
-                                    limits.security + extra, floor=limits.segments_in_band)
+                                    limits.security + extra, floor=limits.segments_allowed)
     return Flight(flights, shots, chosen, check, uncovered, h, single_s, single_path)
 
 
@@ -397,6 +399,8 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
                    flight.uncovered)
     match = settings.match
     params = route.params
+    if settings.zones:
+        params["zone_margin_m"] = zone_margin(settings, setup.drone)
     params["pose_margin"] = dict(setup.pose.to_dict(), kind=settings.pose_margin)
     if setup.drone is not None:
         params["drone"] = setup.drone.name
@@ -527,7 +531,7 @@ def _legs(fg: FlightGraph, order, pred, direct, scene, limits, margin) -> list[t
         for x, y in zip(hops[:-1], hops[1:]):
             nodes.extend(leg(fg, fg.special(x), fg.special(y), direct[x, y])[1:])
         pts = fg.points[np.array(nodes)]
-        keep = shortcut(pts, clearance, radius, floor=limits.segments_in_band)
+        keep = shortcut(pts, clearance, radius, floor=limits.segments_allowed)
         for k in keep[1:-1]:
             out.append((pts[k], -1))
         out.append((pts[-1], v))
@@ -558,6 +562,8 @@ def _route(flights, shots, camera, scene, limits, settings: PlanSettings, spacin
               "max_incidence_deg": settings.max_incidence_deg, "min_altitude_m": settings.floor,
               "ground_z_m": scene.ground_z, "gimbal_pitch_range_deg": list(limits.pitch_range_deg),
               "sample_spacing_m": spacing, "max_altitude_m": settings.max_altitude}
+    if settings.zones:
+        params["zones"] = settings.zones.to_list()
     ground = None
     if scene.terrain is not None:
         ground = scene.terrain.height(pos[:, :2])
@@ -571,12 +577,42 @@ def _final_check(route: Route, scene, limits: ViewLimits) -> None:
     clearance = scene.clearance_model(limits.security)
     p = route.positions
     ok = clearance.segments_clear(p[:-1], p[1:], limits.security) if len(p) > 1 else np.array([True])
-    low = ~limits.in_band(p)
+    low = ~limits.allowed(p)
     if len(p) > 1:
-        low[1:] |= ~limits.segments_in_band(p[:-1], p[1:])
+        low[1:] |= ~limits.segments_allowed(p[:-1], p[1:])
     if not ok.all() or low.any():
         raise RuntimeError(f"internal error: planned route breaks the security distance on "
-                           f"{int((~ok).sum())} segments / altitude at {int(low.sum())} waypoints or segments")
+                           f"{int((~ok).sum())} segments / altitude or zones at {int(low.sum())} waypoints or segments")
+
+
+def zone_margin(settings: PlanSettings, drone: DroneProfile | None) -> float:
+    """The margin the flight keeps from the zones, m: the one asked, else the drone's
+    horizontal position accuracy (a GNSS drone's without a profile)."""
+    if settings.zone_margin is not None:
+        return float(settings.zone_margin)
+    return float((drone.position if drone is not None else TYPICAL_GNSS).horizontal_m)
+
+
+def check_zones(scene, limits: ViewLimits) -> None:
+    """Refuse zones that leave no airspace to photograph the target from."""
+    if not limits.zones:
+        return
+    for zone in limits.zones.keep_in:
+        if zone.polygon.is_empty or zone.floor >= zone.ceiling:
+            raise ParameterError(f"{zone.label} is narrower than twice the zone margin (--zone-margin): "
+                                 "no room to fly inside it")
+    pts = np.vstack([p.mesh.vertices for p in scene.targets])
+    reach = limits.d_opt
+    outline = shapely.MultiPoint(pts[:, :2]).convex_hull.buffer(reach)
+    low = float(limits.floor_at(pts[:, :2]).min())
+    high = float(pts[:, 2].max() + reach)
+    closed = limits.zones.closing_off(outline, low, high)
+    if closed and closed[0].startswith("keep-out"):
+        raise ParameterError(f"{' and '.join(closed)} cover{'s' if len(closed) == 1 else ''} the whole target and "
+                             f"the airspace within d_opt {reach:.1f} m of it: nothing could be photographed")
+    if closed:
+        raise ParameterError(f"{' and '.join(closed)} do{'es' if len(closed) == 1 else ''} not reach within d_opt "
+                             f"{reach:.1f} m of the target: nothing could be photographed from inside it")
 
 
 def _outline(scene) -> list:

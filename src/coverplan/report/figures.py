@@ -9,13 +9,16 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
+import shapely  # noqa: E402
 from matplotlib.collections import LineCollection, PolyCollection  # noqa: E402
 
 from coverplan.evaluation import evaluate
 from coverplan.report.frame import focus_bounds  # noqa: E402
+from coverplan.world.zones import KEEP_OUT, Zones  # noqa: E402
 
 LEG_COLOURS = {"initial": "#2b6cb0", "coverage": "#dd6b20", "final": "#805ad5"}
 ROLE_COLOURS = {"target": "#a0aec0", "obstacle": "#c53030"}
+ZONE_COLOURS = {"keep-out": "#e53e3e", "keep-in": "#2f855a"}
 
 
 def _segment_legs(route) -> list[str]:
@@ -31,6 +34,24 @@ def _projected_meshes(ax, scene, axes: tuple[int, int]):
             tri = tri[np.random.default_rng(0).choice(len(tri), 60_000, replace=False)]
         ax.add_collection(PolyCollection(tri, facecolors=ROLE_COLOURS[part.role], edgecolors="none",
                                          alpha=0.35 if part.role == "target" else 0.6))
+
+
+def _zones(ax, route, lo, hi):
+    """The route's zones in plan view: keep-out filled red, keep-in outlined green, each
+    named inside the part of it within the view [lo, hi]."""
+    view = shapely.box(lo[0], lo[1], hi[0], hi[1])
+    for zone in Zones.from_list(route.params.get("zones")).zones:
+        colour = ZONE_COLOURS[zone.kind]
+        for poly in getattr(zone.polygon, "geoms", [zone.polygon]):
+            for ring in [poly.exterior, *poly.interiors]:
+                xy = np.asarray(ring.coords)[:, :2]
+                ax.fill(xy[:, 0], xy[:, 1], facecolor=colour if zone.kind == KEEP_OUT else "none",
+                        alpha=0.25 if zone.kind == KEEP_OUT else 1.0, edgecolor=colour, lw=1.5,
+                        hatch="//" if zone.kind == KEEP_OUT else None)
+            seen = poly.intersection(view) if zone.kind == KEEP_OUT else poly.exterior.intersection(view)
+            if not seen.is_empty:
+                c = seen.representative_point() if zone.kind == KEEP_OUT else seen.interpolate(0.5, normalized=True)
+                ax.annotate(zone.name, (c.x, c.y), color=colour, fontsize=9, ha="center", va="center")
 
 
 def _path(ax, route, axes: tuple[int, int], mask=None):
@@ -51,6 +72,8 @@ def overview(route, scene, path) -> Path:
     for ax, axes, title, labels in ((top, (0, 1), "top view", ("x (east) m", "y (north) m")),
                                     (side, (0, 2), "side view (from the south)", ("x (east) m", "z m"))):
         _projected_meshes(ax, scene, axes)
+        if axes == (0, 1):
+            _zones(ax, route, lo, hi)
         _path(ax, route, axes)
         ax.set_title(title)
         ax.set_xlabel(labels[0])
@@ -62,6 +85,9 @@ def overview(route, scene, path) -> Path:
     handles += [plt.Line2D([], [], marker="o", ls="", color="#1a202c", label="shot"),
                 plt.Line2D([], [], marker="*", ls="", color="#38a169", markersize=10, label="start")]
     handles += [matplotlib.patches.Patch(color=c, alpha=0.6, label=r) for r, c in ROLE_COLOURS.items()]
+    kinds = {z["kind"] for z in route.params.get("zones") or []}
+    handles += [matplotlib.patches.Patch(facecolor=ZONE_COLOURS[k], alpha=0.3, edgecolor=ZONE_COLOURS[k],
+                                         label=f"{k} zone") for k in sorted(kinds)]
     side.legend(handles=handles, loc="upper right", fontsize=8)
     m = route.metrics or {}
     fig.suptitle(f"{int(route.shot.sum())} shots, {route.path_length:,.0f} m flight"

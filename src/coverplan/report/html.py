@@ -17,7 +17,9 @@ import numpy as np
 from coverplan.equipment.flighttime import FlightModel
 from coverplan.evaluation import evaluate
 from coverplan.flight.battery import flight_table
+from coverplan.io.footprints import extrude
 from coverplan.report.frame import focus_bounds
+from coverplan.world.zones import Zones
 
 MAX_DISPLAY_FACES = 300_000
 MAX_TERRAIN_CELLS = 40_000
@@ -68,6 +70,10 @@ def report_data(route, scene, evaluation, simulation=None) -> dict:
         ground = scene.terrain.mesh_within(lo, hi, max_cells=MAX_TERRAIN_CELLS)
         meshes.append({"name": scene.terrain.source, "role": "terrain",
                        "positions": _b64(ground.vertices, np.float32), "indices": _b64(ground.faces, np.uint32)})
+    for zone in Zones.from_list(route.params.get("zones")).zones:
+        v, f = zone_prism(zone, lo[2], hi[2])
+        meshes.append({"name": zone.label, "role": zone.kind, "positions": _b64(v, np.float32),
+                       "indices": _b64(f, np.uint32)})
     extra = {}
     if simulation is not None:
         extra["simulation"] = {"reconstructed": _b64(simulation.reconstructed_at(samples.points), np.uint8),
@@ -88,6 +94,16 @@ def report_data(route, scene, evaluation, simulation=None) -> dict:
         "sample_size": float(max(samples.spacing * 0.6, 0.05)),
         "frustum_depth": float(max(route.d_opt * 0.12, 0.3)),
     }
+
+
+def zone_prism(zone, low: float, high: float) -> tuple[np.ndarray, np.ndarray]:
+    """Vertices (n, 3) and faces (m, 3) of a zone's prism, its open floor or ceiling cut at
+    ``low`` / ``high`` (the picture's frame)."""
+    floor = zone.floor if np.isfinite(zone.floor) else low
+    ceiling = zone.ceiling if np.isfinite(zone.ceiling) else high
+    tri = np.vstack([extrude(p, max(ceiling - floor, 0.1), base=floor)
+                     for p in getattr(zone.polygon, "geoms", [zone.polygon])])
+    return tri.reshape(-1, 3), np.arange(len(tri) * 3).reshape(-1, 3)
 
 
 def _fmt(v) -> str:
@@ -115,6 +131,8 @@ def metrics_rows(m: dict) -> list[tuple[str, str]]:
                                     f"{_fmt(m.get('segments_below_min_altitude_count', 0))} segments"),
             ("lowest above " + ("the terrain" if m.get("terrain") else "the ground"),
              f"{_fmt(m.get('lowest_above_ground_m'))} m"),
+            *([("zones", ", ".join(f"{z['kind']} {html.escape(z['name'])}" for z in m["zones"])),
+               ("waypoints or segments breaching a zone", _fmt(m["zone_breach_count"]))] if m.get("zones") else []),
             ("coverage of reachable surface", f"{m['coverage_pct']:.2f} %"),
             ("reachable / total surface", f"{m['reachable_area_m2']:,.1f} / {m['surface_area_m2']:,.1f} m²"),
             ("uncovered reachable", f"{m['uncovered_reachable_area_m2']:,.1f} m²"),
@@ -239,6 +257,7 @@ minimum clearance {evaluation.metrics['min_clearance_m']:.2f} m
   <label><input type=checkbox data-layer=targets checked>target</label>
   <label><input type=checkbox data-layer=obstacles checked>obstacles</label>
   {'<label><input type=checkbox data-layer=terrain checked>terrain</label>' if scene.terrain is not None else ''}
+  {'<label><input type=checkbox data-layer=zones checked>zones</label>' if route.params.get("zones") else ''}
   <label><input type=checkbox data-layer=samples checked>coverage</label>
   <label><input type=checkbox data-layer=uncovered checked>uncovered</label>
   <label><input type=checkbox data-layer=path checked>path</label>

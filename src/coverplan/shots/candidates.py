@@ -249,7 +249,7 @@ def keep_safe(scene, candidates: Candidates, limits: ViewLimits, margin: float) 
     """Drop candidates below the minimum altitude or closer than security + margin to a mesh."""
     if len(candidates) == 0:
         return candidates
-    ok = limits.in_band(candidates.positions, tol=0.0)
+    ok = limits.allowed(candidates.positions, tol=0.0)
     idx = np.flatnonzero(ok)
     clearance = scene.clearance_model(limits.security)
     ok[idx] = clearance.points_clear(candidates.positions[idx], limits.security + margin)

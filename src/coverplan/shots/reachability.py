@@ -14,8 +14,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from coverplan.world.terrain import Terrain
+from coverplan.world.zones import KEEP_OUT, Zones
 
-OK, LOW, GIMBAL, OCCLUDED, UNSAFE, HIGH = 0, 1, 2, 3, 4, 5
+OK, LOW, GIMBAL, OCCLUDED, UNSAFE, HIGH, ZONED = 0, 1, 2, 3, 4, 5, 6
 GROUND = -2  # culprit index meaning the ground plane
 
 
@@ -55,6 +56,7 @@ class ViewLimits:
     # to it over slopes, where the minimum altitude alone comes closer than that).
     envelope: Terrain | None = None
     max_altitude: float = np.inf  # the ceiling, m above the ground under the drone
+    zones: Zones = Zones()  # keep-out and keep-in prisms
 
     @property
     def min_altitude(self) -> float:
@@ -96,9 +98,13 @@ class ViewLimits:
             return np.ones(len(points), dtype=bool)
         return points[:, 2] - self.ground_at(points[:, :2]) <= self.max_altitude + tol
 
-    def in_band(self, points, tol: float = 1e-9) -> np.ndarray:
-        """Where the drone may be: above the floor and below the ceiling."""
-        return self.above_floor(points, tol) & self.below_ceiling(points, tol)
+    def allowed(self, points, tol: float = 1e-9) -> np.ndarray:
+        """Where the drone may be: above the floor, below the ceiling, outside every keep-out
+        zone and inside the keep-in region."""
+        ok = self.above_floor(points, tol) & self.below_ceiling(points, tol)
+        if self.zones and ok.any():
+            ok[ok] = self.zones.points_allowed(np.asarray(points, dtype=float).reshape(-1, 3)[ok])
+        return ok
 
     def segments_below_ceiling(self, starts, ends, tol: float = 1e-6) -> np.ndarray:
         """Whether every point of each segment stays below the ceiling (over flat ground the
@@ -112,12 +118,16 @@ class ViewLimits:
             ok[ok] = self.terrain.highest_above(starts[ok], ends[ok]) <= self.max_altitude + tol
         return ok
 
-    def segments_in_band(self, starts, ends, tol: float = 1e-6) -> np.ndarray:
-        """Whether every point of each segment keeps above the floor and below the ceiling."""
+    def segments_allowed(self, starts, ends, tol: float = 1e-6) -> np.ndarray:
+        """Whether every point of each segment keeps above the floor and below the ceiling,
+        out of every keep-out zone and in the keep-in region."""
+        starts = np.asarray(starts, dtype=float).reshape(-1, 3)
+        ends = np.asarray(ends, dtype=float).reshape(-1, 3)
         ok = self.segments_above_floor(starts, ends, tol)
         if np.isfinite(self.max_altitude) and ok.any():
-            ok[ok] = self.segments_below_ceiling(np.asarray(starts).reshape(-1, 3)[ok],
-                                                 np.asarray(ends).reshape(-1, 3)[ok], tol)
+            ok[ok] = self.segments_below_ceiling(starts[ok], ends[ok], tol)
+        if self.zones and ok.any():
+            ok[ok] = self.zones.segments_allowed(starts[ok], ends[ok])
         return ok
 
     def lowest_floor(self, lo_xy, hi_xy) -> float:
@@ -158,13 +168,19 @@ def test_probes(scene, points, normals, owner, positions, rays, limits: ViewLimi
     status[~limits.elevation_ok(rays)] = GIMBAL
     status[(status == OK) & ~limits.above_floor(positions, tol=0.0)] = LOW
     status[(status == OK) & ~limits.below_ceiling(positions, tol=0.0)] = HIGH
+    if limits.zones:
+        live = np.flatnonzero(status == OK)
+        breach = limits.zones.point_breaches(positions[live])
+        status[live[breach >= 0]] = ZONED
+        culprit[live[breach >= 0]] = breach[breach >= 0]
     start = points[owner] + normals[owner] * scene.epsilon * 4
     blocked = scene.rays.segments_blocked(start, positions)
     status[blocked] = OCCLUDED
     underground = ~blocked & (positions[:, 2] < limits.ground_at(positions[:, :2]))  # the ground is opaque too
     status[underground] = OCCLUDED
     culprit[underground] = GROUND
-    live = np.flatnonzero(status == OK)
+    # Zoned probes are judged on the rest too: "only from the zone" must mean the zone alone.
+    live = np.flatnonzero((status == OK) | (status == ZONED))
     if len(live):
         clearance = scene.clearance_model(limits.security)
         safe = clearance.points_clear(positions[live], limits.security, check_inside=False)
@@ -179,7 +195,8 @@ def test_probes(scene, points, normals, owner, positions, rays, limits: ViewLimi
 
 
 def scene_limits(scene, *, security: float, d_opt: float, max_incidence_deg: float, min_altitude: float,
-                pitch_range_deg, vfov_deg: float, max_altitude: float | None = None) -> ViewLimits:
+                pitch_range_deg, vfov_deg: float, max_altitude: float | None = None,
+                zones: Zones = Zones()) -> ViewLimits:
     """The limits over this scene's ground: flat at ``scene.ground_z``, or its terrain (then
     ``min_z`` is the lowest floor near the target and the floor follows the ground)."""
     ground = float(scene.ground_z)
@@ -190,7 +207,7 @@ def scene_limits(scene, *, security: float, d_opt: float, max_incidence_deg: flo
     envelope = None if scene.terrain is None else scene.terrain.clearance_envelope(float(security))
     return ViewLimits(float(security), float(d_opt), float(max_incidence_deg), ground + float(min_altitude),
                       tuple(float(v) for v in pitch_range_deg), float(vfov_deg), ground, scene.terrain, envelope,
-                      np.inf if max_altitude is None else float(max_altitude))
+                      np.inf if max_altitude is None else float(max_altitude), zones)
 
 
 @dataclass
@@ -231,12 +248,13 @@ def reachability(scene, samples, limits: ViewLimits, n_directions: int = 48,
         for s in np.flatnonzero(~reachable[rest]):
             k = rest[s]
             mine = owner == k
-            reason[k] = explain(scene, status[mine], culprit[mine])
+            reason[k] = explain(scene, status[mine], culprit[mine], limits.zones)
     return Reachability(reachable, reason)
 
 
-def explain(scene, status, culprit) -> str:
-    """One line saying why none of a sample's probes worked."""
+def explain(scene, status, culprit, zones: Zones = Zones()) -> str:
+    """One line saying why none of a sample's probes worked (a zone first: without it the
+    sample would be reachable)."""
     def most_common(mask):
         c = culprit[mask & (culprit != -1)]
         if len(c) == 0:
@@ -244,6 +262,12 @@ def explain(scene, status, culprit) -> str:
         values, counts = np.unique(c, return_counts=True)
         top = int(values[np.argmax(counts)])
         return scene.describe(len(scene.parts)) if top == GROUND else scene.describe(top)
+    zoned = status == ZONED
+    if zoned.any():
+        values, counts = np.unique(culprit[zoned], return_counts=True)
+        zone = zones.zones[int(values[np.argmax(counts)])]
+        return (f"reachable only from {zone.label}" if zone.kind == KEEP_OUT
+                else f"reachable only from outside {zone.label}")
     if (status == UNSAFE).any():
         unsafe = f"no viewpoint within d_opt keeps the security distance from {most_common(status == UNSAFE)}"
         # Both: the blocker in front and what crowds the way around it (often the same tree).

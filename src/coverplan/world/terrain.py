@@ -79,11 +79,19 @@ class Terrain:
 
     def lowest_in(self, lo_xy, hi_xy) -> float:
         """Lowest ground over the box [lo_xy, hi_xy] (clamped to the grid like ``height``)."""
+        return float(self._block(lo_xy, hi_xy).min())
+
+    def highest_in(self, lo_xy, hi_xy) -> float:
+        """Highest ground over the box [lo_xy, hi_xy] (clamped to the grid like ``height``)."""
+        return float(self._block(lo_xy, hi_xy).max())
+
+    def _block(self, lo_xy, hi_xy) -> np.ndarray:
+        """The grid nodes of the cells the box [lo_xy, hi_xy] touches."""
         ny, nx = self.shape
         (u0, u1), (v0, v1) = (self._grid_coords(np.array([lo_xy, hi_xy])[:, :2]))
         i0, i1 = int(np.clip(np.floor(u0), 0, nx - 1)), int(np.clip(np.ceil(u1), 0, nx - 1))
         j0, j1 = int(np.clip(np.floor(v0), 0, ny - 1)), int(np.clip(np.ceil(v1), 0, ny - 1))
-        return float(self.heights[j0:j1 + 1, i0:i1 + 1].min())
+        return self.heights[j0:j1 + 1, i0:i1 + 1]
 
     @cached_property
     def max_slope(self) -> float:

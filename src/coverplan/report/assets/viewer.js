@@ -41,11 +41,17 @@ function addLayer(name, object) {
 }
 
 // Meshes: targets grey, obstacles red, the terrain (when given) earth-coloured.
-const groups = { target: new THREE.Group(), obstacle: new THREE.Group(), terrain: new THREE.Group() };
+// Zones: keep-out prisms translucent red, keep-in translucent green.
+const groups = {
+  target: new THREE.Group(), obstacle: new THREE.Group(), terrain: new THREE.Group(),
+  'keep-out': new THREE.Group(), 'keep-in': new THREE.Group(),
+};
 const LOOK = {
   target: { color: 0xa0aec0, opacity: 0.55, depthWrite: false },
   obstacle: { color: 0xc53030, opacity: 0.7, depthWrite: true },
   terrain: { color: 0xb7a77a, opacity: 0.8, depthWrite: true },
+  'keep-out': { color: 0xe53e3e, opacity: 0.18, depthWrite: false },
+  'keep-in': { color: 0x38a169, opacity: 0.08, depthWrite: false },
 };
 for (const m of data.meshes) {
   const g = new THREE.BufferGeometry();
@@ -61,6 +67,9 @@ for (const m of data.meshes) {
 addLayer('targets', groups.target);
 addLayer('obstacles', groups.obstacle);
 addLayer('terrain', groups.terrain);
+const zones = new THREE.Group();
+zones.add(groups['keep-out'], groups['keep-in']);
+addLayer('zones', zones);
 
 // Surface samples coloured by valid views (0, 1, 2, 3+) or by achieved GSD.
 const samplePos = decode(data.samples.positions, Float32Array);
