@@ -12,11 +12,13 @@ from coverplan.shots.reconstructability import (
     add_sharp_views,
     candidate_links,
     connect_shots,
+    cut_shots,
     graph_summary,
     incidence_deg,
     sharp_targets,
     shot_links,
 )
+from coverplan.shots.bracing import bracing_gain
 from coverplan.shots.visibility import has_pair_between, widest_pair_angle
 from coverplan.world.scene import scene_from_meshes
 from tests.helpers import box
@@ -122,6 +124,50 @@ def test_links_hold_on_the_evaluators_samples(ring_job, spacing):
     scene, route = ring_job
     g = evaluate(route, scene, spacing=spacing).metrics["shot_graph"]
     assert g["components"] == 1 and g["shots_short_of_neighbours"] == 0, g
+
+
+def test_cut_shots_are_the_articulation_points():
+    """Against networkx on random graphs, and by hand: a chain's inner photos, a bow tie's knot."""
+    import networkx as nx
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        n = int(rng.integers(1, 30))
+        a = np.triu(rng.random((n, n)) < rng.uniform(0.02, 0.4), 1)
+        a = a | a.T
+        assert list(cut_shots(sp.csr_matrix(a))) == sorted(nx.articulation_points(nx.from_numpy_array(a.astype(int))))
+    chain = sp.diags([np.ones(4), np.ones(4)], [1, -1], shape=(5, 5))
+    assert list(cut_shots(chain)) == [1, 2, 3]
+    bow = nx.to_scipy_sparse_array(nx.Graph([(0, 1), (1, 2), (2, 0), (2, 3), (3, 4), (4, 2)]))
+    assert list(cut_shots(bow)) == [2]
+
+
+def test_a_candidate_braces_the_cuts_it_spans():
+    """On the chain 0-1-2-3-4, a candidate linked to 0 and 2 braces 1; one linked to 1 and 3
+    braces 2; one linked to 0 and 4 braces all three; one linked to 2 alone braces none."""
+    chain = sp.csr_matrix(sp.diags([np.ones(4), np.ones(4)], [1, -1], shape=(5, 5)))
+    to_shots = sp.csr_matrix(np.array([[1, 0, 1, 0, 0], [0, 1, 0, 1, 0], [1, 0, 0, 0, 1], [0, 0, 1, 0, 0]]))
+    assert bracing_gain(chain, to_shots, cut_shots(chain)).tolist() == [1, 1, 3, 0]
+
+
+def test_braced_links_leave_no_photo_the_set_hangs_on(house_job):
+    """The gabled house's photos linked only into one piece were a chain: 16 of 38 photos
+    were each the only link between two groups (one of three field draws split the model
+    there). Braced, on the evaluator's own samples, fewer such photos remain, and none on the
+    ring prism."""
+    scene, route = house_job
+    braced = evaluate(route, scene).metrics["shot_graph"]
+    one_piece = plan(scene, get_camera("phantom4pro"), gsd=0.004, security=3.0, match=MatchRule(braced=False))
+    loose = evaluate(one_piece, scene).metrics["shot_graph"]
+    assert route.params["braced_links"] and not one_piece.params["braced_links"]
+    assert braced["components"] == 1 and loose["components"] == 1
+    assert braced["cut_shots"] <= loose["cut_shots"] // 2, (braced, loose)
+    assert len(route.shots) <= 1.3 * len(one_piece.shots)
+
+
+def test_braced_ring_has_no_cut_photo(ring_job):
+    scene, route = ring_job
+    g = evaluate(route, scene).metrics["shot_graph"]
+    assert g["components"] == 1 and g["cut_shots"] == 0, g
 
 
 def test_bad_rule_settings_are_one_line_errors(capsys, tmp_path):

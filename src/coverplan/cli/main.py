@@ -321,12 +321,14 @@ def _match_rule(args):
     """The sfm rule's settings from the command line (None: the defaults)."""
 
     given = {k: v for k, v in (("max_pair_deg", args.max_pair_deg), ("min_overlap", args.min_overlap),
-                               ("min_neighbours", args.min_neighbours), ("sharp_views", args.sharp_views))
+                               ("min_neighbours", args.min_neighbours), ("sharp_views", args.sharp_views),
+                               ("braced", None if args.links is None else args.links == "braced"))
              if v is not None}
     if not given:
         return None
     if args.rule != "sfm":
-        raise ParameterError(f"--{next(iter(given)).replace('_', '-')} belongs to --rule sfm")
+        flag = {"braced": "links"}.get(next(iter(given)), next(iter(given)))
+        raise ParameterError(f"--{flag.replace('_', '-')} belongs to --rule sfm")
     return MatchRule(**given)
 
 
@@ -443,6 +445,9 @@ def _add_planning_args(p):
                    help="sfm rule: surface two linked photos share (default 0.3)")
     p.add_argument("--min-neighbours", type=int, default=None,
                    help="sfm rule: linked photos every photo needs (default 2)")
+    p.add_argument("--links", choices=["braced", "one-piece"], default=None,
+                   help="sfm rule: braced (default): no photo is the only link between two groups of photos; "
+                        "one-piece: the photos only need to link into one set (the rule before December 2026)")
     p.add_argument("--sharp-views", type=int, default=None, metavar="N",
                    help="sfm rule: views per surface point within 35 deg of its normal, or as near as any "
                         "safe viewpoint gets plus 5 deg (default 1; 0: none asked)")

@@ -48,6 +48,7 @@ from coverplan.planning.settings import (
     safety_margin,
 )
 from coverplan.progress import Progress
+from coverplan.shots.bracing import brace_links
 from coverplan.shots.candidates import (
     Candidates,
     along_normals,
@@ -320,6 +321,8 @@ def close_gaps(problem: Problem, selection: Selection, setup: Setup, progress: P
         if match is not None:
             kept = len(chosen)
             chosen = relink_on_check(cover, closer, chosen, match, vis[:, :coarse])
+            if match.braced:
+                chosen = brace_links(cover, closer, chosen, match, vis[:, :coarse])
             check_links = len(chosen) - kept
             if check_links:
                 check = closer.check(chosen)
@@ -419,7 +422,8 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
     params["rule"] = settings.rule
     if match is not None:
         params.update({"max_pair_deg": match.max_pair_deg, "min_overlap": match.min_overlap,
-                       "min_neighbours": match.min_neighbours, "sharp_views": match.sharp_views})
+                       "min_neighbours": match.min_neighbours, "sharp_views": match.sharp_views,
+                       "braced_links": match.braced})
     _final_check(route, scene, limits)
 
     check, chosen = flight.check, flight.chosen

@@ -34,6 +34,7 @@ class MatchRule:
     min_overlap: float = 0.3
     min_neighbours: int = 2
     sharp_views: int = 1  # views per sample at its sharp incidence (``sharp_targets``); 0: none asked
+    braced: bool = True  # no photo the links hang on (bracing.py); False: one piece is enough
 
     def __post_init__(self):
         if not 0 < self.max_pair_deg < 90:
@@ -82,18 +83,75 @@ def shot_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray,
     return links
 
 
+def cut_shots(links: sp.spmatrix) -> np.ndarray:
+    """The shots (rows of the symmetric ``links``) whose removal splits their piece of the
+    graph: its articulation points, by Tarjan's low-link on an explicit stack.
+
+    Parameters
+    ----------
+    links : (n, n) sparse or dense
+        Symmetric link matrix.
+
+    Returns
+    -------
+    (k,) int
+        Sorted indices of the cut shots.
+    """
+    g = sp.csr_matrix(links)
+    n = g.shape[0]
+    indptr, indices = g.indptr, g.indices
+    order = np.full(n, -1, dtype=np.int64)
+    low = np.zeros(n, dtype=np.int64)
+    parent = np.full(n, -1, dtype=np.int64)
+    cut = np.zeros(n, dtype=bool)
+    clock = 0
+    for root in range(n):
+        if order[root] >= 0:
+            continue
+        order[root] = low[root] = clock
+        clock += 1
+        children = 0
+        stack = [(root, indptr[root])]
+        while stack:
+            v, at = stack[-1]
+            if at < indptr[v + 1]:
+                stack[-1] = (v, at + 1)
+                w = indices[at]
+                if w == v:
+                    continue
+                if order[w] < 0:
+                    parent[w] = v
+                    order[w] = low[w] = clock
+                    clock += 1
+                    if v == root:
+                        children += 1
+                    stack.append((w, indptr[w]))
+                elif w != parent[v]:
+                    low[v] = min(low[v], order[w])
+            else:
+                stack.pop()
+                p = parent[v]
+                if p >= 0:
+                    low[p] = min(low[p], low[v])
+                    if p != root and low[v] >= order[p]:
+                        cut[p] = True
+        if children > 1:
+            cut[root] = True
+    return np.flatnonzero(cut)
+
+
 def graph_summary(links: np.ndarray, rule: MatchRule = MatchRule()) -> dict:
     """Neighbour counts and connected pieces of a link matrix, as the reports state them."""
     n = len(links)
     if n == 0:
         return {"shots": 0, "components": 0, "largest_component": 0, "shots_short_of_neighbours": 0,
-                "median_neighbours": 0.0}
+                "median_neighbours": 0.0, "cut_shots": 0}
     degree = links.sum(axis=1)
     n_comp, label = connected_components(sp.csr_matrix(links), directed=False)
     return {"shots": int(n), "components": int(n_comp),
             "largest_component": int(np.bincount(label).max()),
             "shots_short_of_neighbours": int((degree < rule.min_neighbours).sum()),
-            "median_neighbours": float(np.median(degree))}
+            "median_neighbours": float(np.median(degree)), "cut_shots": len(cut_shots(links))}
 
 
 def candidate_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray,

@@ -34,11 +34,7 @@ def relink_on_check(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse
     neighbours, or to photos in two pieces, can give it."""
     chosen = np.asarray(chosen, dtype=np.int64)
     fine = closer.fine
-    who, at = closer.all_views()
-    mine = np.isin(who, chosen)
-    row_of = np.full(len(problem.cands), -1, dtype=np.int64)
-    row_of[chosen] = np.arange(len(chosen))
-    vis = sp.csr_matrix((np.ones(int(mine.sum())), (row_of[who[mine]], at[mine])), shape=(len(chosen), len(fine)))
+    vis = check_views(closer, chosen, len(problem.cands))
     positions = problem.cands.positions
     links = candidate_links(vis, positions[chosen], fine.points, rule)
     n_pieces, piece = connected_components(links, directed=False)
@@ -55,14 +51,30 @@ def relink_on_check(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse
     extra = np.flatnonzero(useful)
     if len(extra) == 0:
         return chosen
+    pool = np.concatenate([chosen, extra])
+    vis = sp.vstack([vis, new_check_views(problem, closer, extra)]).tocsr()
+    every = extend_links(vis, positions[pool], fine.points, rule, links)  # the shots' own links are known
+    linked = connect_shots(vis, positions[pool], fine.points, np.arange(len(chosen)), rule, links=every)
+    return pool[linked]
+
+
+def check_views(closer, chosen: np.ndarray, n_cands: int) -> sp.csr_matrix:
+    """Which check samples each of the ``chosen`` candidates images, as the check counted
+    them: (len(chosen), check samples) ones."""
+    who, at = closer.all_views()
+    mine = np.isin(who, chosen)
+    row_of = np.full(n_cands, -1, dtype=np.int64)
+    row_of[chosen] = np.arange(len(chosen))
+    return sp.csr_matrix((np.ones(int(mine.sum())), (row_of[who[mine]], at[mine])), shape=(len(chosen), len(closer.fine)))
+
+
+def new_check_views(problem, closer, extra: np.ndarray) -> sp.csr_matrix:
+    """Which check samples the candidates ``extra`` (not yet judged on them) image, by the
+    evaluator's rule: (len(extra), check samples) ones."""
+    fine = closer.fine
     c = problem.cands.subset(extra)
     cam, pt, _ = imaging_pairs(c.positions, c.heading_deg, c.pitch_deg, problem.camera, fine.points, fine.normals,
                                problem.scene.rays, max_range=problem.limits.d_opt,
                                max_incidence_deg=problem.limits.max_incidence_deg, offset=problem.scene.epsilon * 4,
                                point_tree=closer.tree)
-    pool = np.concatenate([chosen, extra])
-    more = sp.csr_matrix((np.ones(len(cam)), (cam, pt)), shape=(len(extra), len(fine)))
-    vis = sp.vstack([vis, more]).tocsr()
-    every = extend_links(vis, positions[pool], fine.points, rule, links)  # the shots' own links are known
-    linked = connect_shots(vis, positions[pool], fine.points, np.arange(len(chosen)), rule, links=every)
-    return pool[linked]
+    return sp.csr_matrix((np.ones(len(cam)), (cam, pt)), shape=(len(extra), len(fine)))

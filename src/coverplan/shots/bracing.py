@@ -1,0 +1,100 @@
+"""No photo the set hangs on: links braced so that losing one photo splits nothing.
+
+A link graph that is one piece can still be a chain: the gabled house's default plan was
+38 photos in one piece, but 16 of them were cut vertices (articulation points), each the only
+link between the photos before it and those after. Under field conditions one of those
+pairs fails to match now and then, and the photos beyond it come back as a second model
+(docs/reconstruction.md: the west gable's eight photos, one draw in three). Bracing adds
+candidates that link to photos on both sides of such a photo, until none is left or no
+candidate helps, judged on the check samples as ``relink_on_check`` judges links.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+from coverplan.shots.reconstructability import MatchRule, candidate_links, cut_shots, extend_links
+from coverplan.shots.relink import check_views, new_check_views
+
+
+def bracing_gain(among: sp.csr_matrix, to_shots: sp.csr_matrix, cuts: np.ndarray) -> np.ndarray:
+    """Per candidate: how many of the ``cuts`` it would brace, by linking to shots on two
+    sides of the cut.
+
+    Parameters
+    ----------
+    among : (k, k) sparse
+        Symmetric links among the plan's shots.
+    to_shots : (m, k) sparse
+        Links from m candidates to the shots.
+    cuts : (c,) int
+        Cut shots of ``among`` (``cut_shots``).
+
+    Returns
+    -------
+    (m,) int
+        Cuts each candidate braces.
+    """
+    among, to_shots = sp.csr_matrix(among), sp.csr_matrix(to_shots)
+    k = among.shape[0]
+    gain = np.zeros(to_shots.shape[0], dtype=np.int64)
+    for a in cuts:
+        keep = np.ones(k, dtype=bool)
+        keep[a] = False
+        n_pieces, piece = connected_components(among[keep][:, keep], directed=False)
+        member = sp.csr_matrix((np.ones(k - 1), (np.flatnonzero(keep), piece)), shape=(k, n_pieces))
+        gain += np.asarray(((to_shots @ member) > 0).sum(axis=1)).ravel() >= 2
+    return gain
+
+
+MAX_POOL = 400  # candidates judged on the check samples, those bracing most on the planner's
+
+
+def brace_links(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse_vis: sp.csr_matrix,
+                max_added: int | None = None) -> np.ndarray:
+    """``chosen`` (candidate indices) with the candidates added that brace its cut shots on
+    the check samples, one at a time the one bracing most, until none is left, nothing helps
+    or ``max_added`` (default: a quarter of the shots) are added.
+
+    Candidates are those that brace a cut by their links on the planner's samples
+    (``coarse_vis``: candidates x those samples); their links are then judged on the check
+    samples.
+    """
+    chosen = np.asarray(chosen, dtype=np.int64)
+    if len(chosen) < 3:
+        return chosen
+    budget = max(1, len(chosen) // 4) if max_added is None else int(max_added)
+    fine = closer.fine
+    positions = problem.cands.positions
+    vis = check_views(closer, chosen, len(problem.cands))
+    links = candidate_links(vis, positions[chosen], fine.points, rule)
+    cuts = cut_shots(links)
+    if len(cuts) == 0:
+        return chosen
+    coarse = problem.samples.points[:coarse_vis.shape[1]]
+    near = candidate_links(coarse_vis, positions, coarse, rule, rows=chosen)[chosen].T.tocsr()  # candidates x shots
+    gain = bracing_gain(links, near, cuts)
+    gain[chosen] = 0
+    extra = np.flatnonzero(gain > 0)
+    if len(extra) == 0:
+        return chosen
+    extra = extra[np.argsort(-gain[extra], kind="stable")[:MAX_POOL]]
+    pool = np.concatenate([chosen, extra])
+    every = extend_links(sp.vstack([vis, new_check_views(problem, closer, extra)]).tocsr(), positions[pool],
+                         fine.points, rule, links)
+    taken = np.zeros(len(pool), dtype=bool)
+    taken[:len(chosen)] = True
+    for _ in range(budget):
+        rows, rest = np.flatnonzero(taken), np.flatnonzero(~taken)
+        among = every[rows][:, rows]
+        cuts = cut_shots(among)
+        if len(cuts) == 0 or len(rest) == 0:
+            break
+        gain = bracing_gain(among, every[rest][:, rows], cuts)
+        best = int(np.argmax(gain))
+        if gain[best] <= 0:
+            break
+        taken[rest[best]] = True
+    return np.concatenate([chosen, pool[len(chosen):][taken[len(chosen):]]])
