@@ -88,6 +88,11 @@ def _hand_plan(path, waypoints, frame=3, home=(EAST - 20, NORTH - 20)):
                       {"type": "SimpleItem", "command": 205, "frame": 2, "params": [-20, 0, 0, 0, 0, 0, 2]},
                       {"type": "SimpleItem", "command": 203, "frame": 2, "params": [0, 0, 0, 0, 1, 0, 0]}]
     items.append({"type": "SimpleItem", "command": 20, "frame": 2, "params": [0] * 7})
+    return _plan_file(path, items, lat0, lon0)
+
+
+def _plan_file(path, items, lat0, lon0):
+    """A ``.plan`` file of these mission items, home at (lat0, lon0) on the ground at BASE."""
     data = {"fileType": "Plan", "version": 1, "groundStation": "QGroundControl",
             "mission": {"version": 2, "firmwareType": 12, "vehicleType": 2, "cruiseSpeed": 5, "hoverSpeed": 5,
                         "plannedHomePosition": [lat0, lon0, BASE], "items": items},
@@ -139,7 +144,9 @@ def test_hand_written_plan_too_close_is_unsafe(house, tmp_path):
 
 @pytest.mark.parametrize("change, message", [
     (lambda d: d["mission"]["items"].append({"type": "ComplexItem", "complexItemType": "StructureScan"}),
-     "StructureScan item"),
+     "(Structure Scan) has no polygon"),
+    (lambda d: d["mission"]["items"].append({"type": "ComplexItem", "complexItemType": "survey"}),
+     "is a survey item, which coverplan does not expand yet"),
     (lambda d: d["mission"]["items"][1].update(frame=10), "above terrain"),
     (lambda d: d["mission"]["items"][1]["params"].__setitem__(4, 123.0), "not on Earth"),
     (lambda d: d.update(fileType="Other"), "not a QGroundControl plan"),
@@ -153,6 +160,64 @@ def test_bad_missions_are_refused_in_one_line(house, tmp_path, capsys, change, m
                  "--gsd", str(GSD), "--security", str(SECURITY)])
     err = capsys.readouterr().err.strip()
     assert code == 2 and message in err and "Traceback" not in err and len(err.splitlines()) == 1
+
+
+DISTANCE, FRONTAL, SIDE, BOTTOM, TOP = 7.0, 2.5, 3.0, 2.0, 6.0
+
+
+def _structure_scan_plan(path, from_top=False):
+    """A QGroundControl Structure Scan of the house, as QGroundControl saves it (item version
+    3, its settings only): outline = the house's walls, counter-clockwise as drawn here."""
+    outline = [(EAST, NORTH), (EAST + 10, NORTH), (EAST + 10, NORTH + 8), (EAST, NORTH + 8)]
+    lon0, lat0 = _utm_to_lonlat(EAST - 20, NORTH - 20)
+    scan = {"type": "ComplexItem", "complexItemType": "StructureScan", "version": 3,
+            "polygon": [list(_utm_to_lonlat(x, y))[::-1] for x, y in outline],
+            "EntranceAltitude": 15.0, "ScanBottomAlt": BOTTOM, "StructureHeight": TOP, "Layers": 9,
+            "GimbalPitch": 0.0, "StartFromTop": from_top,
+            "CameraCalc": {"CameraName": "Custom Camera", "DistanceToSurface": DISTANCE, "DistanceMode": 1,
+                           "AdjustedFootprintFrontal": FRONTAL, "AdjustedFootprintSide": SIDE,
+                           "FrontalOverlap": 70, "SideOverlap": 70, "ValueSetIsDistance": True, "version": 1}}
+    items = [{"type": "SimpleItem", "command": 22, "frame": 3, "params": [0, 0, 0, None, 0, 0, 10.0]}, scan,
+             {"type": "SimpleItem", "command": 20, "frame": 2, "params": [0] * 7}]
+    return _plan_file(path, items, lat0, lon0)
+
+
+@pytest.mark.parametrize("from_top", [False, True])
+def test_structure_scan_is_flown_as_qgroundcontrol_computes_it(house, tmp_path, capsys, from_top):
+    """Layers: ceil((6 - 2) / 2.5) = 2, at 2 + 1.25 and 2 + 3.75 m (from the top: 6 - 1.25 and
+    6 - 3.75), each once round the outline offset by 7 m; a photo every 3 m of each loop,
+    the first at its start; the camera level and facing the wall."""
+    scene = load_scene(house, crs=CRS)
+    mission = read_mission(_structure_scan_plan(tmp_path / "scan.plan", from_top))
+    route = mission_to_route(mission, scene, get_camera("phantom4pro"), GSD, SECURITY)
+    shots = route.positions[route.shots]
+    heights = np.unique(np.round(shots[:, 2] - BASE, 3))
+    expected = [TOP - 1.25, TOP - 3.75] if from_top else [BOTTOM + 1.25, BOTTOM + 3.75]
+    assert heights.tolist() == pytest.approx(sorted(expected), abs=0.01)
+    first_layer = shots[0, 2] - BASE
+    assert first_layer == pytest.approx(expected[0], abs=0.01)
+    loop = 2 * (10 + 8) + 8 * DISTANCE  # the outline offset by 7 m with mitred corners
+    assert len(shots) == 2 * (int(loop // SIDE) + 1)
+    # Every photo 7 m from the walls' plane it faces (on the straight parts), or farther at the corners.
+    lo, hi = np.array([EAST, NORTH]), np.array([EAST + 10, NORTH + 8])
+    local = shots[:, :2] + np.asarray(scene.origin[:2])
+    outside = np.maximum(np.maximum(lo - local, local - hi), 0.0)
+    assert (outside.max(axis=1) >= DISTANCE - 0.05).all() and (outside.max(axis=1) <= DISTANCE + 0.05).all()
+    # Level camera, 90 deg right of the way flown, which is clockwise round the house: it looks at the house.
+    assert np.allclose(route.pitch_deg[route.shots], 0.0)
+    view = np.column_stack([np.sin(np.radians(route.heading_deg[route.shots])),
+                            np.cos(np.radians(route.heading_deg[route.shots]))])
+    centre = (lo + hi) / 2.0
+    assert (np.einsum("ij,ij->i", view, centre - local) > 0).all()
+    # Entrance and exit at the first vertex at 15 m; evaluated like any mission.
+    assert route.positions[1, 2] - BASE == pytest.approx(15.0, abs=0.01)
+    m = metrics(capsys, ["evaluate", str(tmp_path / "scan.plan"), "--target", str(house), "--crs", CRS,
+                         "--camera", "phantom4pro", "--gsd", str(GSD), "--security", str(SECURITY)])
+    assert m["shots"] == len(shots)
+    # From the top, QGroundControl counts the layers down from the structure's height: the
+    # second one, at 2.25 m, is below the 3 m minimum altitude, and the evaluator says so.
+    assert m["safe"] == (not from_top) and (m["altitude_violations"] > 0) == from_top
+    assert m["coverage_by_class_pct"]["facade"] > m["coverage_by_class_pct"].get("roof", 0.0)
 
 
 def test_amsl_mission_needs_a_height_datum(house, tmp_path, capsys):

@@ -7,6 +7,7 @@ import pytest
 import scipy.sparse as sp
 
 from coverplan import evaluate, get_camera, plan
+from coverplan.shots.bracing import bracing_gain
 from coverplan.shots.reconstructability import (
     MatchRule,
     add_sharp_views,
@@ -18,7 +19,6 @@ from coverplan.shots.reconstructability import (
     sharp_targets,
     shot_links,
 )
-from coverplan.shots.bracing import bracing_gain
 from coverplan.shots.visibility import has_pair_between, widest_pair_angle
 from coverplan.world.scene import scene_from_meshes
 from tests.helpers import box

@@ -18,6 +18,7 @@ from coverplan.errors import InputFileError
 from coverplan.files import read_json, write_atomic
 from coverplan.flight.missions import AMSL, TAKEOFF, MissionBuilder
 from coverplan.io.geoflight import geo_flight, geo_zones
+from coverplan.io.qgc_complex import expand_complex_item
 from coverplan.io.registry import register_mission_reader, register_writer
 from coverplan.world.zones import KEEP_IN
 
@@ -177,7 +178,8 @@ def walk_items(items, home, path, source: str):
 
 @register_mission_reader("plan")
 def read_plan(path):
-    """A QGroundControl ``.plan`` mission (simple items only)."""
+    """A QGroundControl ``.plan`` mission: simple items, and Structure Scans expanded as
+    QGroundControl flies them (io/qgc_complex.py)."""
 
     data = read_json(path)
     mission = data.get("mission") if isinstance(data, dict) else None
@@ -189,9 +191,8 @@ def read_plan(path):
         if not isinstance(item, dict):
             raise InputFileError(path, f"mission item {n} is not an object")
         if item.get("type") == "ComplexItem":
-            raise InputFileError(path, f"mission item {n} is a {item.get('complexItemType', 'complex')} item; "
-                                       "only plain waypoints can be evaluated (QGroundControl computes the "
-                                       "others' waypoints itself)")
+            items += expand_complex_item(item, n, path)
+            continue
         params = item.get("params")
         if not isinstance(params, list) or not isinstance(item.get("command"), int):
             raise InputFileError(path, f"mission item {n} has no command and params")
