@@ -112,6 +112,11 @@ ROWS = {
     "keep-out zone over the whole target": (lambda t: ["plan", L, *GEO, *PLAN, "--keep-out", _zone_file(
         t, _square(13.4, 52.5, 0.002)), "-o", t / "r.json"],
         ["keep-out zone 0 covers the whole target", "nothing could be photographed"]),
+    "check: a folder without photos": (lambda t: ["check", _folder(t), "--target", L, *GEO, "-o", t / "out"],
+                                       ["photos", "holds no photos"]),
+    "check: photos without a georeferenced scene": (lambda t: ["check", _folder(t, photos=1), "--target", L,
+                                                               "-o", t / "out"],
+                                                    ["the scene has no georeference", "--geo-origin"]),
     "zone floor above its ceiling": (lambda t: ["plan", L, *GEO, *PLAN, "--keep-out", _zone_file(
         t, _square(13.41, 52.5), floor=30, ceiling=10), "-o", t / "r.json"],
         ["zone 0: floor 30 m is not below its ceiling 10 m"]),
@@ -212,6 +217,19 @@ def _square(lon: float, lat: float, half: float = 0.0002) -> dict:
     """A GeoJSON polygon: a square of ``half`` degrees about (lon, lat)."""
     ring = [[lon - half, lat - half], [lon + half, lat - half], [lon + half, lat + half], [lon - half, lat + half]]
     return {"type": "Polygon", "coordinates": [ring + ring[:1]]}
+
+
+def _folder(tmp_path, photos: int = 0):
+    """A folder with ``photos`` tagged photos (a black pixel each)."""
+    import numpy as np
+
+    from coverplan.sfm.photos import PhotoTags, write_photo
+    folder = tmp_path / "photos"
+    folder.mkdir()
+    for k in range(photos):
+        write_photo(folder / f"p{k}.jpg", np.zeros((8, 8, 3), np.uint8),
+                    PhotoTags(f"p{k}.jpg", 8, 8, 52.5, 13.4, relative_altitude_m=10.0, focal_35mm=24.0))
+    return folder
 
 
 def _zone_file(tmp_path, geometry: dict, **properties):

@@ -23,6 +23,7 @@ from coverplan.io.zones import read_zones
 from coverplan.job import run_job, write_pictures
 from coverplan.planning.settings import DEFAULT_CEILING_M
 from coverplan.progress import Progress
+from coverplan.sfm.check import check as check_photos
 from coverplan.sfm.simulate import Simulation, simulate
 from coverplan.shots.reconstructability import MatchRule
 from coverplan.world.merge import merge_into_target
@@ -332,6 +333,32 @@ def _match_rule(args):
     return MatchRule(**given)
 
 
+def cmd_check(args) -> int:
+    from pathlib import Path
+
+    gsd, security = check_positive("--gsd", args.gsd), check_positive("--security", args.security)
+    out = Path(args.output)
+    if out.exists() and not out.is_dir():
+        raise ParameterError(f"{out} exists and is not a folder")
+    scene = _scene(args)
+    progress = Progress(bars=not args.quiet, verbose=args.verbose)
+    result = check_photos(args.photos, scene, out, gsd=gsd, security=security, threads=args.threads, fit=args.fit,
+                          progress=progress)
+    for name, why in result.left_out:
+        print(f"coverplan: {name} left out: {why}", file=sys.stderr)
+    if args.report:
+        with progress.stage("evaluate"):
+            ev = evaluate(result.route, scene)
+        write_pictures(result.route, scene, ev, args.report, None, progress, result.simulation)
+    if args.json:
+        print(json.dumps(result.to_dict(), indent=1, default=float))
+    elif not args.quiet:
+        print(result.table())
+        print(f"written: {out / 'check.json'}, {out / 'missing.ply'}, {out / 'missing.geojson'}"
+              + (f", {args.report}" if args.report else ""))
+    return 1 if args.strict and not result.simulation.reconstructable else 0
+
+
 def cmd_simulate(args) -> int:
     route = Route.load(args.route)
     scene = _scene(args)
@@ -599,6 +626,25 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("-q", "--quiet", action="store_true")
     p.add_argument("-v", "--verbose", action="store_true")
     p.set_defaults(func=cmd_simulate)
+
+    p = sub.add_parser("check", help="reconstruct a flight's real photos (EXIF/XMP positions) and say what is missing")
+    p.add_argument("photos", metavar="PHOTOS_DIR")
+    _add_scene_args(p, targets_positional=False)
+    p.add_argument("-o", "--output", required=True, metavar="DIR",
+                   help="folder for COLMAP files, check.json, missing.ply and missing.geojson")
+    p.add_argument("--gsd", type=float, default=0.01, metavar="M_PER_PX",
+                   help="the GSD to judge the photos' flight by in its report (default 0.01)")
+    p.add_argument("--security", type=float, default=3.0, metavar="M",
+                   help="the security distance to judge it by in its report (default 3)")
+    p.add_argument("--report", default=None, metavar="REPORT.html", help="also write the HTML report of the flight")
+    p.add_argument("--no-fit", dest="fit", action="store_false",
+                   help="judge the model as aligned through the GNSS tags, without fitting it to the scene")
+    p.add_argument("--threads", type=int, default=-1)
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.add_argument("--strict", action="store_true", help="exit 1 unless the photos reconstruct (DESIGN.md)")
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.add_argument("-v", "--verbose", action="store_true")
+    p.set_defaults(func=cmd_check)
 
     for name, helptext in (("report", "write the HTML flight report (and/or PNG figures) of a route"),
                            ("plot", "write PNG figures (and/or the HTML report) of a route")):

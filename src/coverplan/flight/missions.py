@@ -105,7 +105,9 @@ def mission_to_route(mission: Mission, scene, camera, gsd: float, security: floa
             raise ParameterError(f"the {mission.source} gives heights above sea level, but the scene's "
                                  "heights have no datum; pass --geo-origin LAT LON H, or use a city model "
                                  "with a vertical CRS")
-        origin_z = float(np.asarray(frame.get("origin") or [0, 0, 0], dtype=float)[2])
+        # The height of local z 0: the CRS origin's, or the geodetic origin's own height.
+        origin_z = float(frame["geodetic_origin"][2]) if frame.get("geodetic_origin") else \
+            float(np.asarray(frame.get("origin") or [0, 0, 0], dtype=float)[2])
         z[~above_takeoff] = mission.alt[~above_takeoff] - origin_z
     positions = np.column_stack([local[:, 0], local[:, 1], z])
     notes = list(mission.notes)

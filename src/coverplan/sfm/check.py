@@ -1,0 +1,220 @@
+"""check(): did the photos of a real flight get everything? SfM on them, judged on the model.
+
+The photos' metadata (sfm/photos.py) gives their positions and the camera; photos without a
+position are named and left out. COLMAP runs on the rest as in ``simulate`` (every pair up to
+80 photos, else its spatial matcher on the GNSS tags), each model is aligned to the scene
+through the photos' GNSS positions, and the largest is then fitted to the scene's surfaces
+(a rigid ICP on its 3D points): a flight-wide GNSS bias of a metre or two would otherwise
+decide what counts as rebuilt at 0.1-0.2 m. The verdict is ``simulate``'s: photos registered,
+models, and the share of the surface rebuilt per class, with where it is missing.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from coverplan.equipment.camera import Camera
+from coverplan.errors import InputFileError, ParameterError
+from coverplan.flight.missions import AMSL, TAKEOFF, Mission, mission_to_route
+from coverplan.geometry import geo
+from coverplan.progress import Progress
+from coverplan.sfm.colmap import SPATIAL_NEIGHBOURS, require_pycolmap, run_sfm
+from coverplan.sfm.judge import judge_samples, reconstructed_surface
+from coverplan.sfm.photos import PhotoTags, photo_files, read_photo
+from coverplan.sfm.render import PhotoCamera, ground_plane
+from coverplan.sfm.simulate import JUDGE_SPACING_M, Simulation
+
+ICP_ROUNDS = 15
+ICP_SAMPLE = 20_000
+MAX_FIT_M = 3.0  # a GNSS drone's flight-wide error stays within this; the fit moves no farther
+
+
+@dataclass
+class Check:
+    """What SfM made of a flight's real photos, and which photos it could not use."""
+
+    simulation: Simulation  # the verdict, in simulate's terms
+    route: object  # the photos as a Route in the scene's frame (positions from their GNSS tags)
+    names: list  # the photos used, in route order
+    left_out: list = field(default_factory=list)  # (name, why) of the photos without a position
+    icp_shift_m: float = 0.0  # how far the fit to the scene moves the model from its GNSS alignment
+    fitted: bool = False  # whether the fit was applied (not when it would move the model > MAX_FIT_M)
+    missing: dict = field(default_factory=dict)  # per class: m2 not rebuilt at 0.2 m
+
+    def table(self) -> str:
+        rows = [("photos in the folder", f"{len(self.names) + len(self.left_out)}"),
+                ("left out (no position)", ", ".join(n for n, _ in self.left_out[:8])
+                 + (f" and {len(self.left_out) - 8} more" if len(self.left_out) > 8 else "") or "none"),
+                ("aligned to the scene", (f"through the GNSS tags, then fitted to the surfaces (moved "
+                                          f"{self.icp_shift_m:.2f} m)") if self.fitted else
+                 f"through the GNSS tags only (a fit would move it {self.icp_shift_m:.1f} m)")]
+        rows += self.simulation.rows()[1:]
+        worst = sorted(self.missing.items(), key=lambda kv: -kv[1])[:4]
+        rows += [("missing", ", ".join(f"{c} {a:.1f} m2" for c, a in worst if a > 0.05) or "nothing")]
+        w = max(len(r[0]) for r in rows)
+        return "\n".join(f"{k:<{w}}  {v}" for k, v in rows)
+
+    def to_dict(self) -> dict:
+        return {"photos_used": self.names, "left_out": [{"photo": n, "why": w} for n, w in self.left_out],
+                "icp_shift_m": self.icp_shift_m, "fitted": self.fitted, "missing_m2": self.missing, **self.simulation.to_dict()}
+
+
+def photos_as_mission(tags: list[PhotoTags], absolute_heights: bool, source: str) -> Mission:
+    """The photos as a mission of one photo per waypoint, in name order."""
+    lat = np.array([t.lat for t in tags])
+    lon = np.array([t.lon for t in tags])
+    rel = np.array([t.relative_altitude_m for t in tags])
+    absolute = np.array([t.absolute_altitude_m if np.isfinite(t.absolute_altitude_m) else t.gps_altitude_m
+                         for t in tags])
+    use_abs = ~np.isfinite(rel) | (absolute_heights & np.isfinite(absolute))
+    alt = np.where(use_abs, absolute, rel)
+    ref = np.where(use_abs, AMSL, TAKEOFF)
+    return Mission(lat, lon, alt, ref, np.array([t.heading_deg for t in tags]),
+                   np.array([t.pitch_deg for t in tags]), np.ones(len(tags), dtype=bool), source)
+
+
+def photo_camera(tags: list[PhotoTags], folder: Path) -> tuple[PhotoCamera, Camera]:
+    """The one camera of the photos: SfM's pinhole and a Camera for the route."""
+    sizes = {(t.width, t.height) for t in tags}
+    if len(sizes) > 1:
+        raise InputFileError(folder, f"holds photos of {len(sizes)} sizes ({', '.join(f'{w}x{h}' for w, h in sorted(sizes))}); "
+                                     "check one camera's photos at a time")
+    focal = np.array([t.focal_px for t in tags])
+    if not np.isfinite(focal).any():
+        raise InputFileError(folder, "its photos give no focal length (EXIF FocalLength with FocalPlaneXResolution, "
+                                     "or FocalLengthIn35mmFilm)")
+    fx = float(np.median(focal[np.isfinite(focal)]))
+    width, height = sizes.pop()
+    mm = float(np.nanmedian([t.focal_mm for t in tags])) if np.isfinite([t.focal_mm for t in tags]).any() else 10.0
+    camera = Camera(width / fx * mm, height / fx * mm, mm, width, height, name="from the photos' EXIF")
+    return PhotoCamera(width, height, fx, fx), camera
+
+
+def fit_to_scene(points: np.ndarray, surfaces: trimesh.Trimesh, rounds: int = ICP_ROUNDS,
+                 sample: int = ICP_SAMPLE, seed: int = 0) -> np.ndarray:
+    """A rigid transform (4, 4) moving ``points`` (n, 3) onto ``surfaces``: ICP on a sample,
+    each round on the pairs within three times the median distance (at least 0.3 m)."""
+    rng = np.random.default_rng(seed)
+    pts = points if len(points) <= sample else points[rng.choice(len(points), sample, replace=False)]
+    total = np.eye(4)
+    if len(pts) < 10:
+        return total
+    query = trimesh.proximity.ProximityQuery(surfaces)
+    for _ in range(rounds):
+        moved = pts @ total[:3, :3].T + total[:3, 3]
+        closest, distance, _ = query.on_surface(moved)
+        # Pairs within reach of a GNSS error: farther points are clutter, not the same surface.
+        near = distance <= min(max(0.3, 3.0 * float(np.median(distance))), MAX_FIT_M)
+        if near.sum() < 10:
+            break
+        step, _, _ = trimesh.registration.procrustes(moved[near], closest[near], reflection=False, scale=False)
+        total = step @ total
+        if np.linalg.norm(step[:3, 3]) < 1e-4 and np.allclose(step[:3, :3], np.eye(3), atol=1e-6):
+            break
+    return total
+
+
+def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.0, threads: int = -1,
+          exhaustive_limit: int = 80, spatial_neighbours: int = SPATIAL_NEIGHBOURS,
+          judge_spacing: float = JUDGE_SPACING_M, fit: bool = True, progress: Progress | None = None) -> Check:
+    """Reconstruct a flight's photos and judge what they rebuilt of ``scene``.
+
+    Parameters
+    ----------
+    photos_dir : path
+        JPEG/TIFF/PNG photos with EXIF GPS (and DJI XMP) tags.
+    scene : Scene
+        The models the photos should rebuild, georeferenced (CRS, city model or geodetic origin).
+    out_dir : path
+        COLMAP's files, ``check.json``, ``missing.ply`` and, with a georeference, ``missing.geojson``.
+    gsd, security : float
+        Only for the route the photos make (its report): the GSD and security distance to judge it by.
+    fit : bool
+        Fit the GNSS-aligned model to the scene's surfaces (ICP) before judging.
+
+    Returns
+    -------
+    Check
+    """
+    require_pycolmap()
+    progress = progress or Progress()
+    folder = Path(photos_dir)
+    files = photo_files(folder)
+    if not geo.has_georeference(scene.frame):
+        raise ParameterError("the photos give latitude/longitude, but the scene has no georeference: pass --crs "
+                             "EPSG:XXXX or --geo-origin LAT LON H (as for planning)")
+    with progress.stage("reading the photos' metadata", total=len(files), unit="img") as tick:
+        tags = []
+        for f in files:
+            tags.append(read_photo(f))
+            tick(1)
+    left_out = [(t.name, "no GPS position in its metadata") for t in tags if not t.has_position]
+    tags = [t for t in tags if t.has_position]
+    if len(tags) < 2:
+        raise InputFileError(folder, f"has {len(tags)} photo(s) with a GPS position; SfM needs at least 2")
+    photo, camera = photo_camera(tags, folder)
+    frame = scene.frame
+    absolute = bool(frame.get("vertical_crs") or frame.get("geodetic_origin"))
+    route = mission_to_route(photos_as_mission(tags, absolute, "photos"), scene, camera, gsd, security)
+    names = [t.name for t in tags]
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    gnss = route.positions
+    spread = float(np.ptp(gnss, axis=0).max()) if len(gnss) else 0.0
+    sfm = run_sfm(folder, names, photo, gnss, [], out_dir / "colmap", exhaustive_limit=exhaustive_limit,
+                  threads=threads, progress=progress, matching="spatial", recorded_positions=gnss,
+                  neighbour_distance=max(0.5 * spread, 10.0), neighbours=spatial_neighbours)
+    best = sfm.largest
+    pts = best.points if best is not None and best.aligned else np.zeros((0, 3))
+    shift, fitted = 0.0, False
+    if fit and len(pts):
+        with progress.stage("fitting the model to the scene"):
+            surfaces = trimesh.util.concatenate([p.mesh for p in scene.parts]
+                                                + [ground_plane(scene, 2.0 * route.d_opt)])
+            m = fit_to_scene(pts, surfaces)
+            centroid = pts.mean(axis=0)
+            shift = float(np.linalg.norm(centroid @ m[:3, :3].T + m[:3, 3] - centroid))
+            fitted = shift <= MAX_FIT_M
+            if fitted:
+                pts = pts @ m[:3, :3].T + m[:3, 3]
+            else:  # not a GNSS error: a wrong georeference or height datum, left for the user to see
+                progress.note(f"fitting the model to the scene would move it {shift:.1f} m: kept at its GNSS "
+                              "alignment (check the georeference and heights)")
+    with progress.stage("judging the reconstruction"):
+        samples = judge_samples(scene, judge_spacing)
+        surface = reconstructed_surface(samples, pts)
+    distance, classes = surface.pop("nearest_point_m"), surface.pop("classes")
+    registered = set(best.image_names) if best is not None else set()
+    sim = Simulation(photos=len(names), registered=len(registered),
+                     registered_any=len(set().union(*[m.image_names for m in sfm.models])) if sfm.models else 0,
+                     models=len(sfm.models), points=int(len(pts)),
+                     reprojection_error_px=best.reprojection_error_px if best is not None else float("nan"),
+                     centre_error_m={"median": float("nan"), "max": float("nan")}, surface=surface,
+                     photo_width_px=photo.width, seconds=dict(sfm.seconds),
+                     shot_registered=np.array([n in registered for n in names]), sample_points=samples.points,
+                     sample_distance=distance, model_points=pts, conditions="photos", texture="real")
+    missing_mask = distance > 0.2
+    missing = {c: float(samples.area[missing_mask & (classes == c)].sum()) for c in sorted(set(classes))}
+    result = Check(sim, route, names, left_out, shift, fitted, missing)
+    _write(result, scene, samples, missing_mask, classes, out_dir)
+    return result
+
+
+def _write(result: Check, scene, samples, missing_mask, classes, out_dir: Path) -> None:
+    (out_dir / "check.json").write_text(json.dumps(result.to_dict(), indent=1, default=float))
+    if len(result.simulation.model_points):
+        trimesh.PointCloud(result.simulation.model_points).export(out_dir / "check.points.ply")
+    gone = samples.points[missing_mask]
+    if len(gone):
+        trimesh.PointCloud(gone).export(out_dir / "missing.ply")
+    lon, lat, h = geo.to_lonlat(scene.frame, gone) if len(gone) else (np.zeros(0),) * 3
+    features = [{"type": "Feature", "geometry": {"type": "Point", "coordinates": [round(float(a), 9),
+                                                                                  round(float(b), 9), round(float(c), 3)]},
+                 "properties": {"class": str(k)}} for a, b, c, k in zip(lon, lat, h, classes[missing_mask])]
+    (out_dir / "missing.geojson").write_text(json.dumps({"type": "FeatureCollection", "features": features}))
+

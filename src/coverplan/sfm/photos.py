@@ -1,0 +1,224 @@
+"""The photos of a real flight: where each was taken, where it looked, with which camera.
+
+Read from the photos' own metadata with Pillow (EXIF) and lxml (the XMP packet):
+
+- position: EXIF GPS latitude, longitude and altitude (above sea level); DJI's XMP
+  ``drone-dji:AbsoluteAltitude`` and ``drone-dji:RelativeAltitude`` (above the take-off point)
+  when present, the relative one preferred unless the scene's heights are above sea level;
+- orientation: ``drone-dji:GimbalYawDegree`` (else ``FlightYawDegree``) and
+  ``GimbalPitchDegree``, degrees from true north and from level;
+- camera: the EXIF focal length with the focal-plane resolution (pixels per mm of sensor), or
+  the 35 mm equivalent focal length over the image diagonal, and the image size.
+
+``write_photo`` writes the same tags, as a DJI drone does, so tests and ``simulate`` can hand
+rendered photos to ``check`` as a user would hand theirs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from lxml import etree
+
+from coverplan.errors import InputFileError
+
+PHOTO_SUFFIXES = (".jpg", ".jpeg", ".tif", ".tiff", ".png")
+DJI_NS = "http://www.dji.com/drone-dji/1.0/"
+FULL_FRAME_DIAGONAL_MM = float(np.hypot(36.0, 24.0))
+_GPS, _EXIF = 0x8825, 0x8769
+_FOCAL, _FOCAL_35, _FP_XRES, _FP_YRES, _FP_UNIT = 0x920A, 0xA405, 0xA20E, 0xA20F, 0xA210
+_MM_PER_UNIT = {2: 25.4, 3: 10.0, 4: 1.0, 5: 1e-3}  # EXIF focal-plane resolution units: inch, cm, mm, um
+
+
+@dataclass
+class PhotoTags:
+    """One photo's metadata. NaN where the photo does not say."""
+
+    name: str
+    width: int
+    height: int
+    lat: float = np.nan
+    lon: float = np.nan
+    gps_altitude_m: float = np.nan  # above sea level (EXIF)
+    absolute_altitude_m: float = np.nan  # above sea level (DJI XMP)
+    relative_altitude_m: float = np.nan  # above the take-off point (DJI XMP)
+    heading_deg: float = np.nan  # true north, clockwise
+    pitch_deg: float = np.nan  # 0 level, -90 down
+    focal_mm: float = np.nan
+    focal_35mm: float = np.nan
+    pixels_per_mm: float = np.nan  # on the sensor (EXIF focal-plane resolution)
+
+    @property
+    def has_position(self) -> bool:
+        return bool(np.isfinite(self.lat) and np.isfinite(self.lon)
+                    and (np.isfinite(self.relative_altitude_m) or np.isfinite(self.absolute_altitude_m)
+                         or np.isfinite(self.gps_altitude_m)))
+
+    @property
+    def focal_px(self) -> float:
+        """The focal length in pixels, from the sensor's pixel size or the 35 mm equivalent."""
+        if np.isfinite(self.focal_mm) and np.isfinite(self.pixels_per_mm):
+            return float(self.focal_mm * self.pixels_per_mm)
+        if np.isfinite(self.focal_35mm):
+            return float(self.focal_35mm * np.hypot(self.width, self.height) / FULL_FRAME_DIAGONAL_MM)
+        return float("nan")
+
+
+def read_photo(path) -> PhotoTags:
+    """The metadata of one photo (``InputFileError`` when it is not an image)."""
+    from PIL import Image, UnidentifiedImageError
+
+    path = Path(path)
+    try:
+        with Image.open(path) as img:
+            width, height = img.size
+            exif = img.getexif()
+            xmp = img.info.get("xmp") or img.info.get("XML:com.adobe.xmp")
+    except (UnidentifiedImageError, OSError) as exc:
+        raise InputFileError(path, f"is not a readable image ({exc})") from None
+    tags = PhotoTags(path.name, int(width), int(height))
+    gps = exif.get_ifd(_GPS)
+    if 2 in gps and 4 in gps:
+        tags.lat = _degrees(gps[2], gps.get(1, "N"), "S")
+        tags.lon = _degrees(gps[4], gps.get(3, "E"), "W")
+    if 6 in gps:
+        below = gps.get(5) in (1, b"\x01")
+        tags.gps_altitude_m = -float(gps[6]) if below else float(gps[6])
+    sub = exif.get_ifd(_EXIF)
+    if _FOCAL in sub:
+        tags.focal_mm = float(sub[_FOCAL])
+    if _FOCAL_35 in sub and float(sub[_FOCAL_35]) > 0:
+        tags.focal_35mm = float(sub[_FOCAL_35])
+    if _FP_XRES in sub and float(sub[_FP_XRES]) > 0:
+        tags.pixels_per_mm = float(sub[_FP_XRES]) / _MM_PER_UNIT.get(int(sub.get(_FP_UNIT, 2)), 25.4)
+    if xmp:
+        _read_dji_xmp(tags, xmp, path)
+    return tags
+
+
+def _degrees(dms, ref, negative: str) -> float:
+    d, m, s = (float(v) for v in dms)
+    value = d + m / 60.0 + s / 3600.0
+    ref = ref.decode() if isinstance(ref, bytes) else str(ref)
+    return -value if ref.strip().upper() == negative else value
+
+
+def _read_dji_xmp(tags: PhotoTags, xmp, path: Path) -> None:
+    text = xmp if isinstance(xmp, bytes) else str(xmp).encode("utf-8")
+    try:
+        root = etree.fromstring(text.strip(b"\x00 \n"), parser=etree.XMLParser(resolve_entities=False,
+                                                                               no_network=True, recover=True))
+    except etree.XMLSyntaxError:
+        return
+    if root is None:
+        return
+    values = {}
+    for node in root.iter():
+        for key, value in node.attrib.items():  # DJI writes its tags as attributes ...
+            if key.startswith("{" + DJI_NS + "}"):
+                values[key[len(DJI_NS) + 2:]] = value
+        if isinstance(node.tag, str) and node.tag.startswith("{" + DJI_NS + "}") and node.text:
+            values[node.tag[len(DJI_NS) + 2:]] = node.text  # ... or as elements
+
+    def number(name):
+        try:
+            return float(values[name])
+        except (KeyError, ValueError):
+            return np.nan
+
+    for attr, name in (("relative_altitude_m", "RelativeAltitude"), ("absolute_altitude_m", "AbsoluteAltitude"),
+                       ("pitch_deg", "GimbalPitchDegree")):
+        if np.isfinite(number(name)):
+            setattr(tags, attr, number(name))
+    yaw = number("GimbalYawDegree")
+    tags.heading_deg = float(np.mod(yaw if np.isfinite(yaw) else number("FlightYawDegree"), 360.0))
+    if np.isfinite(number("GpsLatitude")) and not np.isfinite(tags.lat):
+        tags.lat, tags.lon = number("GpsLatitude"), number("GpsLongitude")
+
+
+def write_photo(path, image: np.ndarray, tags: PhotoTags, quality: int = 95) -> Path:
+    """Write ``image`` (h, w, 3) uint8 as a JPEG carrying ``tags`` as EXIF and DJI XMP."""
+    from PIL import Image
+    from PIL.TiffImagePlugin import IFDRational
+
+    def dms(value: float):
+        value = abs(float(value))
+        d = int(value)
+        m = int((value - d) * 60.0)
+        s = (value - d - m / 60.0) * 3600.0
+        return (IFDRational(d), IFDRational(m), IFDRational(int(round(s * 1e6)), 1_000_000))
+
+    exif = Image.Exif()
+    exif[0x010F], exif[0x0110] = "coverplan", "rendered"
+    gps = {1: "N" if tags.lat >= 0 else "S", 2: dms(tags.lat), 3: "E" if tags.lon >= 0 else "W", 4: dms(tags.lon)}
+    if np.isfinite(tags.gps_altitude_m):
+        gps[5] = b"\x00" if tags.gps_altitude_m >= 0 else b"\x01"
+        gps[6] = IFDRational(int(round(abs(tags.gps_altitude_m) * 1000)), 1000)
+    exif[_GPS] = gps
+    sub = {}
+    if np.isfinite(tags.focal_mm):
+        sub[_FOCAL] = IFDRational(int(round(tags.focal_mm * 1000)), 1000)
+    if np.isfinite(tags.pixels_per_mm):
+        sub[_FP_XRES] = sub[_FP_YRES] = IFDRational(int(round(tags.pixels_per_mm * 1000)), 1000)
+        sub[_FP_UNIT] = 4
+    if np.isfinite(tags.focal_35mm):
+        sub[_FOCAL_35] = int(round(tags.focal_35mm))
+    exif[_EXIF] = sub
+    attrs = {"GimbalYawDegree": tags.heading_deg, "FlightYawDegree": tags.heading_deg,
+             "GimbalPitchDegree": tags.pitch_deg, "RelativeAltitude": tags.relative_altitude_m,
+             "AbsoluteAltitude": tags.absolute_altitude_m}
+    described = " ".join(f'drone-dji:{k}="{v:+.3f}"' for k, v in attrs.items() if np.isfinite(v))
+    xmp = (f'<x:xmpmeta xmlns:x="adobe:ns:meta/"><rdf:RDF xmlns:rdf="http://www.w3.org/1999/02/22-rdf-syntax-ns#">'
+           f'<rdf:Description rdf:about="" xmlns:drone-dji="{DJI_NS}" {described}/></rdf:RDF></x:xmpmeta>')
+    Image.fromarray(np.asarray(image, dtype=np.uint8)).save(path, exif=exif.tobytes(), xmp=xmp.encode("utf-8"),
+                                                          quality=int(quality))
+    return Path(path)
+
+
+def photo_files(folder) -> list[Path]:
+    """The photos in ``folder`` (not its subfolders), sorted by name."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise InputFileError(folder, "no such folder" if not folder.exists() else "is not a folder of photos")
+    files = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in PHOTO_SUFFIXES)
+    if not files:
+        raise InputFileError(folder, f"holds no photos ({', '.join(PHOTO_SUFFIXES)})")
+    return files
+
+
+def write_flight_photos(route, scene, folder, width: int = 1024, seed: int = 0, shots=None,
+                        progress=None) -> list[Path]:
+    """Render the route's photos (``simulate``'s ideal renderer, same seed: the same pictures)
+    and write them as JPEGs tagged as a DJI drone tags its own: GPS position, altitude above
+    the take-off point and above sea level, gimbal yaw and pitch, focal length and the
+    sensor's pixel size. ``shots``: indices into ``route.shots`` to write (default all)."""
+    from coverplan.geometry.geo import grid_convergence, to_lonlat
+    from coverplan.sfm.render import PhotoCamera, PhotoRenderer
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    photo = PhotoCamera.of(route.camera, width)
+    renderer = PhotoRenderer(scene, photo, finest_texture_m=2.5 * photo.gsd_at(0.8 * route.d_opt),
+                             ground_reach=4.0 * route.d_opt + route.security, seed=seed)
+    rows = route.shots if shots is None else route.shots[np.asarray(shots, dtype=np.int64)]
+    p = route.positions[rows]
+    lon, lat, h = to_lonlat(route.frame, p)
+    absolute = bool(route.frame.get("vertical_crs") or route.frame.get("geodetic_origin"))
+    heading = np.mod(route.heading_deg[rows] + grid_convergence(route.frame, p), 360.0)
+    scale = photo.width / route.camera.image_width_px  # the sensor's pixels at the rendered width
+    pixels_per_mm = route.camera.image_width_px / route.camera.sensor_width_mm * scale
+    written = []
+    for k, row in enumerate(rows):
+        image = renderer.render(route.positions[row], route.heading_deg[row], route.pitch_deg[row])
+        tags = PhotoTags(f"DJI_{k + 1:04d}.JPG", photo.width, photo.height, float(lat[k]), float(lon[k]),
+                         gps_altitude_m=float(h[k]) if absolute else np.nan,
+                         absolute_altitude_m=float(h[k]) if absolute else np.nan,
+                         relative_altitude_m=float(p[k, 2] - route.takeoff_z), heading_deg=float(heading[k]),
+                         pitch_deg=float(route.pitch_deg[row]), focal_mm=route.camera.focal_length_mm,
+                         pixels_per_mm=pixels_per_mm)
+        written.append(write_photo(folder / tags.name, image, tags))
+        if progress is not None:
+            progress(1)
+    return written

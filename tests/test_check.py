@@ -1,0 +1,61 @@
+"""`coverplan check` (issue 32): a flight's own photos, tagged as a DJI drone tags them,
+reconstructed and judged; the side the flight left out is named."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from coverplan import get_camera, load_scene, plan
+from coverplan.cli import main
+from coverplan.sfm.photos import PhotoTags, read_photo, write_flight_photos, write_photo
+from tests.helpers import MESHES
+
+ORIGIN = ["48.77", "9.18", "250"]  # the gabled house's frame on Earth (--geo-origin)
+
+
+def test_photo_tags_round_trip(tmp_path):
+    tags = PhotoTags("a.jpg", 64, 48, 48.7712345, -9.1812345, gps_altitude_m=271.25, absolute_altitude_m=271.25,
+                     relative_altitude_m=21.25, heading_deg=312.5, pitch_deg=-35.0, focal_mm=8.8, pixels_per_mm=4.85)
+    back = read_photo(write_photo(tmp_path / "a.jpg", np.zeros((48, 64, 3), np.uint8), tags))
+    assert (back.width, back.height) == (64, 48) and back.has_position
+    assert back.lat == pytest.approx(tags.lat, abs=1e-9) and back.lon == pytest.approx(tags.lon, abs=1e-9)
+    for name in ("gps_altitude_m", "absolute_altitude_m", "relative_altitude_m", "heading_deg", "pitch_deg"):
+        assert getattr(back, name) == pytest.approx(getattr(tags, name), abs=1e-3), name
+    assert back.focal_px == pytest.approx(8.8 * 4.85, rel=1e-3)
+    # Without the sensor's pixel size, the 35 mm equivalent over the image diagonal.
+    plain = read_photo(write_photo(tmp_path / "b.jpg", np.zeros((48, 64, 3), np.uint8),
+                                   PhotoTags("b.jpg", 64, 48, 1.0, 2.0, relative_altitude_m=5.0, focal_35mm=24.0)))
+    assert plain.focal_px == pytest.approx(24.0 * 80.0 / np.hypot(36.0, 24.0), rel=1e-3)
+
+
+@pytest.mark.xdist_group("photos_check")
+def test_check_finds_one_model_and_names_the_side_left_out(tmp_path, capsys):
+    scene = load_scene(MESHES / "gabled_house.obj", geodetic_origin=[float(v) for v in ORIGIN])
+    route = plan(scene, get_camera("phantom4pro"), gsd=0.004, security=3.0)
+    north = scene.bounds("target")[1][1]
+    keep = np.flatnonzero(route.positions[route.shots][:, 1] <= north)  # no photo from north of the house
+    folder = tmp_path / "photos"
+    write_flight_photos(route, scene, folder, width=480, shots=keep)
+    from PIL import Image
+    Image.open(folder / "DJI_0001.JPG").save(folder / "NO_GPS.JPG")  # pixels without the tags
+    out = tmp_path / "check"
+    code = main(["check", str(folder), "--target", str(MESHES / "gabled_house.obj"), "--geo-origin", *ORIGIN,
+                 "-o", str(out), "--json", "-q"])
+    assert code == 0
+    captured = capsys.readouterr()
+    result = json.loads(captured.out)
+    assert "NO_GPS.JPG left out" in captured.err
+    assert result["photos"] == len(keep) and result["models"] == 1
+    assert result["registered"] >= 0.98 * len(keep)
+    by = result["surface"]["by_radius"]["0.2"]["by_class_pct"]
+    assert by["facade north"] < 30.0  # the side nobody photographed
+    assert min(by["facade south"], by["facade east"], by["facade west"]) >= 85.0
+    assert max(result["missing_m2"], key=result["missing_m2"].get) == "facade north"
+    missing = json.loads((out / "missing.geojson").read_text())["features"]
+    classes = [f["properties"]["class"] for f in missing]
+    assert classes.count("facade north") > 0.4 * len(classes)
+    lon, lat = np.array([f["geometry"]["coordinates"][:2] for f in missing]).T
+    assert np.all(np.abs(lat - 48.77) < 0.001) and np.all(np.abs(lon - 9.18) < 0.001)
