@@ -88,7 +88,7 @@ from coverplan.shots.repair import (
 )
 from coverplan.shots.selection import select_views
 from coverplan.shots.surface import SurfaceSamples, default_spacing, sample_surface
-from coverplan.shots.visibility import pair_stats, view_rays
+from coverplan.shots.visibility import imaging_pairs, pair_stats, view_rays
 
 MAX_LATTICE_NODES = 150_000
 
@@ -399,7 +399,7 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
     more for safety before it is handed out."""
     settings, limits = setup.asked, setup.limits
     route = _route(flight.flights, flight.shots, setup.asked_camera, scene, limits, settings, setup.spacing,
-                   flight.uncovered)
+                   _witnessed(flight.uncovered, flight.shots, setup, scene))
     match = settings.match
     params = route.params
     if settings.zones:
@@ -595,6 +595,25 @@ def zone_margin(settings: PlanSettings, drone: DroneProfile | None) -> float:
     if settings.zone_margin is not None:
         return float(settings.zone_margin)
     return float((drone.position if drone is not None else TYPICAL_GNSS).horizontal_m)
+
+
+def _witnessed(uncovered: list[dict], shots: Candidates, setup: Setup, scene) -> list[dict]:
+    """The uncovered list with the samples the pose margin's narrower frame called unreachable
+    but a shot images with the whole frame (as the evaluator judges it) marked reachable."""
+    lost = [k for k, u in enumerate(uncovered) if not u["reachable"]]
+    if not lost or len(shots) == 0 or setup.pose == NO_MARGIN:
+        return uncovered
+    points = np.array([uncovered[k]["position"] for k in lost])
+    normals = np.array([uncovered[k]["normal"] for k in lost])
+    _cam, pt, _ = imaging_pairs(shots.positions, shots.heading_deg, shots.pitch_deg, setup.asked_camera, points,
+                                normals, scene.rays,
+                                max_range=setup.limits.d_opt, max_incidence_deg=setup.limits.max_incidence_deg,
+                                offset=scene.epsilon * 4)
+    out = list(uncovered)
+    for j in np.unique(pt):
+        out[lost[j]] = dict(out[lost[j]], reachable=True,
+                            reason="seen only near a frame's edge, within the drone's pose margin")
+    return out
 
 
 def check_zones(scene, limits: ViewLimits) -> None:
