@@ -230,3 +230,21 @@ def test_segment_test_agrees_with_dense_sampling(seed_only_draws, points, floor,
             (pts[:, 2] <= floor + height - 1e-3)
         assert not (allowed and not inside.all())
         assert allowed or not deep.all()
+
+
+def test_the_report_draws_the_zones(street_plan, city, tmp_path):
+    """The HTML report carries the street as a keep-out prism with a layer switch, and the
+    overview figure draws it."""
+    import base64
+
+    from coverplan.report.figures import overview
+    from coverplan.report.html import render_html, report_data
+    _out, route, street = street_plan
+    scene = city[1]
+    ev = evaluate(route, scene)
+    zones = [m for m in report_data(route, scene, ev)["meshes"] if m["role"] == "keep-out"]
+    assert [m["name"] for m in zones] == ["keep-out zone street"]
+    v = np.frombuffer(base64.b64decode(zones[0]["positions"]), np.float32).reshape(-1, 3)
+    assert shapely.Polygon(street).buffer(1e-3).covers(shapely.MultiPoint(v[:, :2]))  # the prism stands on the street
+    assert "data-layer=zones" in render_html(route, scene, ev)
+    assert overview(route, scene, tmp_path / "overview.png").stat().st_size > 10_000
