@@ -23,6 +23,8 @@ import numpy as np
 from lxml import etree
 
 from coverplan.errors import InputFileError
+from coverplan.geometry.geo import grid_convergence, to_lonlat
+from coverplan.sfm.render import PhotoCamera, ideal_renderer
 
 PHOTO_SUFFIXES = (".jpg", ".jpeg", ".tif", ".tiff", ".png")
 DJI_NS = "http://www.dji.com/drone-dji/1.0/"
@@ -194,14 +196,10 @@ def write_flight_photos(route, scene, folder, width: int = 1024, seed: int = 0, 
     and write them as JPEGs tagged as a DJI drone tags its own: GPS position, altitude above
     the take-off point and above sea level, gimbal yaw and pitch, focal length and the
     sensor's pixel size. ``shots``: indices into ``route.shots`` to write (default all)."""
-    from coverplan.geometry.geo import grid_convergence, to_lonlat
-    from coverplan.sfm.render import PhotoCamera, PhotoRenderer
-
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     photo = PhotoCamera.of(route.camera, width)
-    renderer = PhotoRenderer(scene, photo, finest_texture_m=2.5 * photo.gsd_at(0.8 * route.d_opt),
-                             ground_reach=4.0 * route.d_opt + route.security, seed=seed)
+    renderer = ideal_renderer(scene, photo, route.d_opt, route.security, seed=seed)
     rows = route.shots if shots is None else route.shots[np.asarray(shots, dtype=np.int64)]
     p = route.positions[rows]
     lon, lat, h = to_lonlat(route.frame, p)

@@ -181,6 +181,18 @@ class PhotoRenderer:
 TEXTURE_FAMILIES = ("noise", "cells")
 
 
+def ground_reach(d_opt: float, security: float) -> float:
+    """How far the rendered ground reaches beyond the meshes: farther than any photo looks."""
+    return 4.0 * float(d_opt) + float(security)
+
+
+def ideal_renderer(scene, photo: PhotoCamera, d_opt: float, security: float, seed: int = 0) -> PhotoRenderer:
+    """The renderer of ``--conditions ideal``: value noise whose finest octave is about 2.5 px
+    wide at 80 % of d_opt (the usual standoff), visible and not aliased."""
+    return PhotoRenderer(scene, photo, finest_texture_m=2.5 * photo.gsd_at(0.8 * d_opt),
+                         ground_reach=ground_reach(d_opt, security), seed=seed)
+
+
 def check_texture(family: str) -> str:
     """``family`` if it names a texture family, else a one-line ParameterError."""
     if family not in TEXTURE_FAMILIES:

@@ -29,8 +29,9 @@ from coverplan.sfm.judge import judge_samples, reconstructed_surface
 from coverplan.sfm.render import (
     FieldRenderer,
     PhotoCamera,
-    PhotoRenderer,
     check_texture,
+    ground_reach,
+    ideal_renderer,
 )
 
 DEFAULT_WIDTH_PX = 1024
@@ -274,13 +275,11 @@ def _simulate_once(route, scene, out_dir: Path, cond, texture: str, matching: st
     photo = PhotoCamera.of(route.camera, width)
     d_opt = route.d_opt
     flown = fly(route, cond, seed=seed)
-    reach = 4.0 * d_opt + route.security
     if cond.physical_textures:
-        renderer = FieldRenderer(scene, photo, ground_reach=reach, family=texture, facades=cond.facades, seed=seed)
+        renderer = FieldRenderer(scene, photo, ground_reach=ground_reach(d_opt, route.security), family=texture,
+                                 facades=cond.facades, seed=seed)
     else:
-        # Finest texture about 2.5 px wide at 80 % of d_opt (the usual standoff): visible, not aliased.
-        renderer = PhotoRenderer(scene, photo, finest_texture_m=2.5 * photo.gsd_at(0.8 * d_opt),
-                                 ground_reach=reach, seed=seed)
+        renderer = ideal_renderer(scene, photo, d_opt, route.security, seed=seed)
     names = [f"shot_{k:04d}.png" for k in range(len(shots))]
     t = time.perf_counter()
     from PIL import Image  # the sfm extra

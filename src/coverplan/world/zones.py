@@ -112,25 +112,7 @@ class Zones:
         -------
         (n,) int
         """
-        points = np.asarray(points, dtype=float).reshape(-1, 3)
-        out = np.full(len(points), -1, dtype=np.int64)
-        if not self.zones or len(points) == 0:
-            return out
-        geoms = shapely.points(points[:, :2])
-        for k, z in enumerate(self.zones):
-            if z.kind != KEEP_OUT:
-                continue
-            live = out < 0
-            inside = _in_heights(points[live, 2], z) & shapely.intersects(z.polygon, geoms[live])
-            out[np.flatnonzero(live)[inside]] = k
-        inside_any = np.zeros(len(points), dtype=bool)
-        keep_in = [k for k, z in enumerate(self.zones) if z.kind == KEEP_IN]
-        for k in keep_in:
-            z = self.zones[k]
-            inside_any |= _in_heights(points[:, 2], z) & shapely.covers(z.polygon, geoms)
-        if keep_in:
-            out[(out < 0) & ~inside_any] = keep_in[0]
-        return out
+        return self.segment_breaches(points, points)  # a point is a segment of no length
 
     def segments_allowed(self, starts, ends) -> np.ndarray:
         """Whether each segment stays outside every keep-out zone and inside the keep-in region.
@@ -247,10 +229,6 @@ class Zones:
                                for z in keep_in):
             return [z.label for z in keep_in]
         return []
-
-
-def _in_heights(z: np.ndarray, zone: Zone) -> np.ndarray:
-    return (z >= zone.floor) & (z <= zone.ceiling)
 
 
 def _clip_to_heights(starts, ends, floor: float, ceiling: float):
