@@ -240,7 +240,9 @@ def _clip_to_heights(starts, ends, floor: float, ceiling: float):
         t_c = (ceiling - starts[:, 2]) / np.where(flat, 1.0, dz)
     t0 = np.where(flat, 0.0, np.maximum(np.minimum(t_f, t_c), 0.0))
     t1 = np.where(flat, 1.0, np.minimum(np.maximum(t_f, t_c), 1.0))
-    ok = np.where(flat, (starts[:, 2] >= floor) & (starts[:, 2] <= ceiling), t0 <= t1)
+    # A segment too nearly level to divide by dz counts whole where any of it is within the heights.
+    lo, hi = np.minimum(starts[:, 2], ends[:, 2]), np.maximum(starts[:, 2], ends[:, 2])
+    ok = np.where(flat, (hi >= floor) & (lo <= ceiling), t0 <= t1)
     d = ends - starts
     return starts + t0[:, None] * d, starts + np.clip(t1, t0, 1.0)[:, None] * d, ok
 
