@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from coverplan.errors import ParameterError
+from coverplan.flight.passing import flown_path
 from coverplan.flight.route import Route
 from coverplan.geometry.clearance import ClearanceModel
 from coverplan.shots.reachability import ViewLimits, reachability, scene_limits
@@ -133,15 +134,16 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
     if classes:
         samples = samples.of_classes(classes)
     shots = route.shots
+    photo_pos = route.flown_positions()[shots]  # where the drone really is at each photo
     reach_range = route.d_opt if rule == "strict" else 4.0 * scene.extent + route.d_opt
-    pairs = imaging_pairs(route.positions[shots], route.heading_deg[shots], route.pitch_deg[shots],
+    pairs = imaging_pairs(photo_pos, route.heading_deg[shots], route.pitch_deg[shots],
                           route.camera, samples.points, samples.normals, scene.rays,
                           max_range=reach_range, max_incidence_deg=limits.max_incidence_deg,
                           offset=scene.epsilon * 4, progress=progress)
     cam, pt, rng = pairs
     n = len(samples)
     views = np.bincount(pt, minlength=n)
-    rays = view_rays(cam, pt, route.positions[shots], samples.points)
+    rays = view_rays(cam, pt, photo_pos, samples.points)
     min_views = int(route.param("min_views"))
     min_triangulation_deg = float(route.param("min_triangulation_deg"))
     max_pair_deg = route.params.get("max_pair_deg")
@@ -191,10 +193,30 @@ def shot_graph(route: Route, samples: SurfaceSamples, pairs) -> dict:
     n = len(route.shots)
     vis = sp.csr_matrix((np.ones(len(cam)), (cam, pt)), shape=(n, len(samples)))
     rule = match_rule(route)
-    summary = graph_summary(shot_links(vis, route.positions[route.shots], samples.points, rule), rule)
+    summary = graph_summary(shot_links(vis, route.flown_positions()[route.shots], samples.points, rule), rule)
     summary.update({"max_pair_deg": rule.max_pair_deg, "min_overlap": rule.min_overlap,
                     "min_neighbours": rule.min_neighbours})
     return summary
+
+
+def _flown_through(route: Route, scene, limits: ViewLimits, zones: Zones) -> dict | None:
+    """The corners a route flown through cuts (passing.py), judged as its segments are: the
+    security distance, the altitude band and the zones; and how far its photos are taken from
+    the planned points. None for a route that stops at every waypoint."""
+    if not route.flies_through:
+        return None
+    passing = route.passing()
+    path = flown_path(route.positions, np.where(passing, route.turn_damping, 0.0))
+    d, _mesh, _exact = scene.clearance_model(route.security).polyline_clearance(path, route.security)
+    tol = 1e-6 * max(1.0, route.security)
+    band = limits.segments_allowed(path[:-1], path[1:]) & limits.allowed(path[1:])
+    breaches = _zone_breaches(path, zones)
+    offset = np.linalg.norm(route.flown_positions() - route.positions, axis=1)
+    return {"waypoints_flown_through": int(passing.sum()), "photos_in_passing": int((passing & route.shot).sum()),
+            "min_clearance_m": float(d.min()) if len(d) else None,
+            "max_photo_offset_m": float(offset[route.shot].max()) if route.shot.any() else 0.0,
+            "cut_corners_outside_band": int((~band).sum()), "zone_breaches": len(breaches),
+            "safe": bool((d >= route.security - tol).all() and band.all() and not breaches)}
 
 
 def _zone_breaches(positions: np.ndarray, zones: Zones) -> list[dict]:
@@ -232,7 +254,7 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
     reachable_area = float(area[reach].sum())
     covered_area = float(area[ev.covered & reach].sum())
     shots = route.shots
-    shot_pos = route.positions[shots]
+    shot_pos = route.flown_positions()[shots]
     total_area = samples.total_area
     security = route.security
     tol = 1e-6 * max(1.0, security)
@@ -247,6 +269,7 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
     zones = Zones.from_list(route.params.get("zones"))
     zone_breaches = _zone_breaches(p, zones)
     orient = route.orientation_errors_deg()
+    through = _flown_through(route, scene, limits, zones)
     seg_k = int(np.argmin(ev.segment_clearance)) if len(ev.segment_clearance) else None
     p_outliers = (ev.views >= 2) & (ev.widest_deg < float(route.param("min_triangulation_deg")))
 
@@ -335,9 +358,10 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
         "terrain": scene.terrain.source if scene.terrain is not None else None,
         "orientation_mismatches": int((orient > ORIENTATION_TOLERANCE_DEG).sum()),
         "returns_to_start": bool(np.linalg.norm(route.positions[-1] - route.positions[0]) < 1e-6),
+        "flown_through": through,
         "safe": bool(len(unsafe) == 0 and len(low) == 0 and len(low_segments) == 0 and not ev.waypoint_inside.any()
                      and len(near_ground) == 0 and len(high) == 0 and len(high_segments) == 0
-                     and len(zone_breaches) == 0),
+                     and len(zone_breaches) == 0 and (through is None or through["safe"])),
         "security_m": security,
         "d_opt_m": route.d_opt,
     }
@@ -422,6 +446,12 @@ def format_metrics(m: dict) -> str:
                      f"{_fmt(m['zone_distance_m'], ' m')} from them in plan view"
                      + (f", first {m['zone_breaches'][0]['zone']}" if m['zone_breach_count'] else ""))]
           if m.get("zones") else []),
+        *([("flown through", f"{m['flown_through']['photos_in_passing']} photos in passing, taken at most "
+                             f"{m['flown_through']['max_photo_offset_m']:.2f} m from the planned point; the cut "
+                             f"corners keep {_fmt(m['flown_through']['min_clearance_m'], ' m')}"
+                             + ("" if m["flown_through"]["safe"] else " (UNSAFE: closer than the security distance, "
+                                "outside the altitude band or in a zone)"))]
+          if m.get("flown_through") else []),
         ("orientation mismatches", str(m["orientation_mismatches"])),
         ("coverage of reachable", f"{m['coverage_pct']:.2f} % (checked every {m['sample_spacing_m']:.2f} m)"),
         (f"seen within {SHARP_INCIDENCE_DEG:g} deg", f"{m['sharp_view_pct']:.1f} % of the covered surface"

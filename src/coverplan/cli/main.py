@@ -257,6 +257,7 @@ def _plan_options(args) -> dict:
                 max_flight_min=args.max_flight_min,
                 lp_time_limit=args.lp_time_limit, surface_classes=args.only, pose_margin=args.margin,
                 keep_out=tuple(args.keep_out), keep_in=tuple(args.keep_in), zone_margin=args.zone_margin,
+                fly=args.fly,
                 max_memory=None if args.max_memory_gb is None
                 else check_positive("--max-memory-gb", args.max_memory_gb) * 1e9)
 
@@ -464,6 +465,10 @@ def _add_planning_args(p):
     p.add_argument("--margin", choices=["field", "none"], default="field",
                    help="field (default): judge frames and view-pair angles with the drone's own position, heading "
                         "and gimbal error (docs/reconstruction.md); none: the rules as given")
+    p.add_argument("--fly", choices=["through", "stop"], default="through",
+                   help="through (default): take photos in passing where the turn, motion blur, the photo interval "
+                        "and the heading and gimbal turns allow it, and stop elsewhere (docs/flights.md); "
+                        "stop: stop at every waypoint. The photos are the same")
     p.add_argument("--min-views", type=int, default=None, help="views per surface point (default 3; thesis rule 2)")
     p.add_argument("--min-triangulation-deg", type=float, default=5.0)
     p.add_argument("--max-pair-deg", type=float, default=None, metavar="DEG",

@@ -62,6 +62,13 @@ def _flight_rows(route) -> list[tuple[str, str]]:
     limit = route.params.get("max_flight_min")
     rows = [("flight time", f"{total:.1f} min by the flight-time model ({how})"
              + (f"; limit {limit:g} min per flight" if limit else ""))]
+    through = m.get("fly_through")
+    if through and route.flies_through:
+        rows.append(("flown through", f"{through['minutes']:.1f} min: {through['photos_in_passing']} of "
+                                      f"{through['photos']} photos taken in passing (at most "
+                                      f"{through['fastest_photo_mps']:.1f} m/s, {through['max_photo_offset_m']:.2f} m "
+                                      "off the planned point), stops elsewhere; the WPML and QGroundControl "
+                                      "exports fly it so, Litchi stops at every waypoint"))
     if len(flights) > 1:
         extra = route.path_length / m["single_flight_path_m"] if m.get("single_flight_path_m") else float("nan")
         rows.append(("flights", f"{len(flights)}, each from the start point back to it; path {extra:.2f}x one "

@@ -42,8 +42,10 @@ class FlightModel:
     def to_dict(self) -> dict:
         return asdict(self)
 
-    def segment_seconds(self, a, b) -> np.ndarray:
-        """Travel time from rest at each point of ``a`` to rest at the matching point of ``b``."""
+    def top_speeds(self, a, b) -> np.ndarray:
+        """(n,) the highest speed from each point of ``a`` to the matching point of ``b`` whose
+        horizontal part is within the cruise speed and vertical part within the climb or
+        descent rate (the cruise speed for an empty segment)."""
         d = np.asarray(b, dtype=float).reshape(-1, 3) - np.asarray(a, dtype=float).reshape(-1, 3)
         length = np.linalg.norm(d, axis=1)
         horizontal = np.hypot(d[:, 0], d[:, 1])
@@ -52,7 +54,13 @@ class FlightModel:
         with np.errstate(divide="ignore", invalid="ignore"):
             top = np.minimum(np.where(horizontal > 0, self.cruise_speed * length / horizontal, np.inf),
                              np.where(vertical > 0, rate * length / vertical, np.inf))
-        top = np.where(np.isfinite(top), top, self.cruise_speed)
+        return np.where(np.isfinite(top), top, self.cruise_speed)
+
+    def segment_seconds(self, a, b) -> np.ndarray:
+        """Travel time from rest at each point of ``a`` to rest at the matching point of ``b``."""
+        length = np.linalg.norm(np.asarray(b, dtype=float).reshape(-1, 3) - np.asarray(a, dtype=float).reshape(-1, 3),
+                                axis=1)
+        top = self.top_speeds(a, b)
         reaches_top = length >= top ** 2 / self.acceleration
         return np.where(reaches_top, length / np.maximum(top, 1e-12) + top / self.acceleration,
                         2.0 * np.sqrt(length / self.acceleration))

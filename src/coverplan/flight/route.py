@@ -12,6 +12,7 @@ import numpy as np
 from coverplan.equipment.camera import Camera
 from coverplan.errors import ParameterError, RouteFormatError
 from coverplan.files import read_json, write_atomic
+from coverplan.flight.passing import corner_offsets
 from coverplan.geometry.orientation import (
     angle_between_deg,
     heading_pitch,
@@ -54,6 +55,8 @@ class Route:
     extra: dict = field(default_factory=dict)
     flight: np.ndarray | None = None  # (n,) 1, 2, ...: the battery flight of each waypoint
     ground_z: np.ndarray | None = None  # (n,) the terrain's height under each waypoint (planned over terrain)
+    pass_speed: np.ndarray | None = None  # (n,) m/s where the drone flies through (passing.py), 0 at stops
+    turn_damping: np.ndarray | None = None  # (n,) m before a waypoint flown through that its turn starts
 
     def __post_init__(self):
         self.positions = np.asarray(self.positions, dtype=float).reshape(-1, 3)
@@ -68,6 +71,27 @@ class Route:
             np.asarray(self.flight, dtype=int).reshape(-1)
         if self.ground_z is not None:
             self.ground_z = np.asarray(self.ground_z, dtype=float).reshape(-1)
+        if (self.pass_speed is None) != (self.turn_damping is None):
+            raise ParameterError("a route flown through needs both pass speeds and turn damping distances")
+        if self.pass_speed is not None:
+            self.pass_speed = np.asarray(self.pass_speed, dtype=float).reshape(-1)
+            self.turn_damping = np.asarray(self.turn_damping, dtype=float).reshape(-1)
+
+    @property
+    def flies_through(self) -> bool:
+        """True when some waypoint is flown through rather than stopped at."""
+        return self.pass_speed is not None and bool((self.pass_speed > 0).any())
+
+    def passing(self) -> np.ndarray:
+        """(n,) bool: waypoints flown through without stopping."""
+        return np.zeros(len(self), dtype=bool) if self.pass_speed is None else self.pass_speed > 0
+
+    def flown_positions(self) -> np.ndarray:
+        """(n, 3) where the drone is as it passes each waypoint: the waypoint itself at a stop,
+        off it on the inside of the turn where it flies through (passing.py)."""
+        if self.turn_damping is None:
+            return self.positions.copy()
+        return self.positions + corner_offsets(self.positions, np.where(self.passing(), self.turn_damping, 0.0))
 
     def __len__(self) -> int:
         return len(self.positions)
@@ -111,7 +135,9 @@ class Route:
         return Route(self.positions[rows], self.shot[rows], self.heading_deg[rows], self.pitch_deg[rows],
                      [self.leg[r] for r in rows], self.camera, dict(self.params), view_dir=self.view_dir[rows],
                      frame=self.frame, metrics={}, extra=dict(self.extra),
-                     ground_z=None if self.ground_z is None else self.ground_z[rows])
+                     ground_z=None if self.ground_z is None else self.ground_z[rows],
+                     pass_speed=None if self.pass_speed is None else self.pass_speed[rows],
+                     turn_damping=None if self.turn_damping is None else self.turn_damping[rows])
 
     def flight_minutes(self, speed: float, shot_seconds: float) -> float:
         """The simple estimate: the path at ``speed`` m/s plus ``shot_seconds`` per photo."""
@@ -146,6 +172,8 @@ class Route:
                 "leg": self.leg[k],
                 **({"flight": int(self.flight[k])} if several else {}),
                 **({"ground_z": round(float(self.ground_z[k]), 4)} if self.ground_z is not None else {}),
+                **({"pass_speed_mps": math.floor(float(self.pass_speed[k]) * 1e4) / 1e4,
+                    "turn_damping_m": round(float(self.turn_damping[k]), 4)} if self.pass_speed is not None else {}),
             })
         d = {
             "format": FORMAT, "version": VERSION, "units": "m",
@@ -195,7 +223,7 @@ class Route:
         waypoints = _require(data, "waypoints", list, path)
         if not waypoints:
             raise RouteFormatError(path, "has no waypoints")
-        pos, shot, vdir, head, pitch, leg, flight, ground = [], [], [], [], [], [], [], []
+        pos, shot, vdir, head, pitch, leg, flight, ground, passes = [], [], [], [], [], [], [], [], []
         for k, wp in enumerate(waypoints):
             if not isinstance(wp, dict):
                 raise RouteFormatError(path, f"waypoint {k} is not an object")
@@ -234,6 +262,14 @@ class Route:
                                              "waypoint or for none")
             if g is not None:
                 ground.append(float(g))
+            v, d = wp.get("pass_speed_mps"), wp.get("turn_damping_m")
+            given = v is not None or d is not None
+            if given and not (_finite(v) and _finite(d) and v >= 0 and d >= 0) \
+                    or (k > 0 and given != bool(passes)):
+                raise RouteFormatError(path, f"waypoint {k} pass_speed_mps and turn_damping_m must be numbers >= 0, "
+                                             "given together for every waypoint or for none")
+            if given:
+                passes.append((float(v), float(d)))
         if flight[0] != 1:
             raise RouteFormatError(path, "the first waypoint must be in flight 1")
         frame = data.get("frame") or {"crs": None, "origin": [0.0, 0.0, 0.0]}
@@ -250,7 +286,9 @@ class Route:
         return cls(np.array(pos), np.array(shot), np.array(head), np.array(pitch), leg, camera, dict(params),
                    view_dir=vdir, frame=frame, uncovered=uncovered, metrics=data.get("metrics") or {},
                    extra=data.get("planner") or {}, flight=np.array(flight),
-                   ground_z=np.array(ground) if ground else None)
+                   ground_z=np.array(ground) if ground else None,
+                   pass_speed=np.array([v for v, _ in passes]) if passes else None,
+                   turn_damping=np.array([d for _, d in passes]) if passes else None)
 
     def orientation_errors_deg(self) -> np.ndarray:
         """Angle between each waypoint's view_dir and the one its heading and pitch give."""

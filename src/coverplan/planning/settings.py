@@ -10,10 +10,12 @@ import numpy as np
 from coverplan.equipment.camera import Camera, check_positive
 from coverplan.equipment.margin import MARGINS
 from coverplan.errors import ParameterError, PlanningError
+from coverplan.flight.passing import PassRules
 from coverplan.shots.reconstructability import MatchRule
 from coverplan.world.zones import Zones
 
 RULES = ("sfm", "thesis")
+FLY = ("through", "stop")
 DEFAULT_CEILING_M = 120.0  # EU (EASA open category), UK CAA, US FAA Part 107: 120 m / 400 ft above the ground
 
 
@@ -73,6 +75,12 @@ class PlanSettings:
         How far the flight keeps from the zones, m, against its own position error: keep-out
         zones grown and keep-in zones shrunk by it, sideways and in height; None: the drone's
         horizontal position accuracy (1.5 m, a GNSS drone's, without a drone profile).
+    fly : {"through", "stop"}
+        "through" takes photos in passing where the turn, motion blur, the photo interval and
+        the heading and gimbal turns allow it (flight/passing.py) and stops elsewhere; "stop"
+        stops at every waypoint. The shots are the same either way.
+    pass_rules : PassRules
+        Blur, photo offset, turn and speed limits of flying through.
     """
 
     gsd: float
@@ -95,6 +103,8 @@ class PlanSettings:
     max_altitude: float | None = DEFAULT_CEILING_M
     zones: Zones = field(default_factory=Zones)
     zone_margin: float | None = None
+    fly: str = "through"
+    pass_rules: PassRules = field(default_factory=PassRules)
 
     def __post_init__(self):
         def put(name, value):
@@ -104,6 +114,8 @@ class PlanSettings:
         put("security", check_positive("security distance", self.security))
         if self.rule not in RULES:
             raise ParameterError(f"rule must be one of {', '.join(RULES)}, got {self.rule!r}")
+        if self.fly not in FLY:
+            raise ParameterError(f"fly must be one of {', '.join(FLY)}, got {self.fly!r}")
         if self.pose_margin not in MARGINS:
             raise ParameterError(f"pose margin must be one of {', '.join(MARGINS)}, got {self.pose_margin!r}")
         min_views = (3 if self.rule == "sfm" else 2) if self.min_views is None else self.min_views

@@ -26,6 +26,7 @@ from coverplan.flight.battery import (
     transit_headings,
     waypoint_times,
 )
+from coverplan.flight.passing import camera_timing, fly_through
 from coverplan.flight.pathing import (
     FlightGraph,
     build_flight_graph,
@@ -425,6 +426,12 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
                        "min_neighbours": match.min_neighbours, "sharp_views": match.sharp_views,
                        "braced_links": match.braced})
     _final_check(route, scene, limits)
+    through = None
+    if settings.fly == "through":
+        through = fly_through(route, scene, limits, setup.flight_model,
+                              **camera_timing(setup.asked_camera, setup.drone, setup.flight_model),
+                              rules=settings.pass_rules)
+        params["fly"] = "through"
 
     check, chosen = flight.check, flight.chosen
     fine = check.samples
@@ -457,6 +464,8 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
         "single_flight_path_m": flight.single_flight_path_m,
         "single_flight_min": flight.single_flight_s / 60.0,
     }
+    if through is not None:
+        route.metrics["fly_through"] = through
     if selection.lp_bound is not None:
         route.metrics["lp_lower_bound_shots"] = selection.lp_bound
     route.extra = {"notes": notes + list(scene.notes), "target_outline": _outline(scene)}

@@ -25,6 +25,7 @@ from coverplan.equipment.drones import (
 )
 from coverplan.equipment.flighttime import FlightModel
 from coverplan.errors import ParameterError
+from coverplan.flight.passing import route_leg_seconds, travel_directions
 from coverplan.sfm.render import _SUN as FIXED_SUN
 
 BIAS_CORRELATION_S = 300.0  # the flight-wide error's drift: correlated over about 5 minutes
@@ -86,16 +87,21 @@ class FlownPhotos:
         return np.linalg.norm(self.positions - self.planned, axis=1)
 
 
-def photo_times(route, model: FlightModel) -> np.ndarray:
-    """Seconds from the first take-off at each of the route's photos (battery swaps included)."""
+def photo_times(route, model: FlightModel, photo_interval_s: float | None = None) -> np.ndarray:
+    """Seconds from the first take-off at each of the route's photos (battery swaps included),
+    through the route's pass speeds where it flies through."""
     p = route.positions
     legs = np.zeros(len(p))
     if len(p) > 1:
-        legs[1:] = np.maximum(model.segment_seconds(p[:-1], p[1:]),
-                              model.rotation_seconds(route.heading_deg, route.pitch_deg))
+        if route.flies_through:
+            interval = model.photo_seconds if photo_interval_s is None else photo_interval_s
+            legs[1:] = route_leg_seconds(route, model, interval)
+        else:
+            legs[1:] = np.maximum(model.segment_seconds(p[:-1], p[1:]),
+                                  model.rotation_seconds(route.heading_deg, route.pitch_deg))
         new_flight = np.flatnonzero(np.diff(route.flight) != 0) + 1
         legs[new_flight] = BATTERY_SWAP_S
-    photo = np.where(route.shot, model.photo_seconds, 0.0)
+    photo = np.where(route.shot & ~route.passing(), model.photo_seconds, 0.0)
     t = np.cumsum(legs + photo) - photo  # the photo is taken on arrival, after settling
     return t[route.shots]
 
@@ -139,8 +145,8 @@ def fly(route, conditions: Conditions, seed: int = 0, drone: DroneProfile | None
     n = len(shots)
     rng = np.random.default_rng([int(seed), 0x5EED])
     model = drone.flight_model() if drone is not None else FlightModel()
-    t = photo_times(route, model)
-    planned = route.positions[shots].copy()
+    t = photo_times(route, model, drone.photo_interval_s if drone is not None else None)
+    planned = route.flown_positions()[shots]  # flying through, the drone passes off the planned point
     positions, heading, pitch = planned.copy(), route.heading_deg[shots].copy(), route.pitch_deg[shots].copy()
     recorded = planned.copy()
     if conditions.pose_error:
@@ -161,6 +167,8 @@ def fly(route, conditions: Conditions, seed: int = 0, drone: DroneProfile | None
         direct = np.clip(0.75 + 0.35 * cloud, 0.15, 1.0)  # mostly sunny, clouds now and then
         exposure = np.exp(rng.normal(0.0, 0.1, n))  # auto exposure meters each photo anew
         velocity = np.column_stack([rng.normal(0.0, HOVER_SPEED_SIGMA, (n, 2)), rng.normal(0.0, 0.05, n)])
+        if route.flies_through:  # photos taken in passing move at the pass speed along the path
+            velocity = velocity + (route.pass_speed[:, None] * travel_directions(route.positions))[shots]
     else:
         sun = np.tile(FIXED_SUN, (n, 1))
         direct, exposure, velocity = np.ones(n), np.ones(n), np.zeros((n, 3))

@@ -1,0 +1,418 @@
+"""Photos in passing: where the drone flies through a waypoint instead of stopping, how fast,
+and where it really is when it passes.
+
+A waypoint is flown through ("turns before the waypoint, flies through": DJI's
+``toPointAndPassWithContinuityCurvature`` with ``useStraightLine``) when the path turns there
+by at most ``max_turn_deg``; the turn starts ``damping_m`` before the waypoint and ends as far
+after it, on a circular arc tangent to both legs. The drone then passes the waypoint at
+``d tan(theta / 4)`` from it, on the inside of the turn: the photo's offset, kept within
+``max_photo_offset_m`` by shortening the damping distance at photos.
+
+The speed at a waypoint flown through is the least of:
+
+- the turn: ``sqrt(a R)`` on an arc of radius ``R = d / tan(theta / 2)``, at the model's
+  acceleration ``a`` sideways;
+- at a photo, motion blur: the image moves ``v * shutter * (1 / range + rotation per metre)``
+  pixel angles during the exposure (translation seen at the nearest surface in the frame, plus
+  heading and gimbal turning evenly along the legs), kept within ``max_blur_px``;
+- the top speed of the legs on either side, which keep the horizontal part within the cruise
+  speed and the vertical part within the climb or descent rate, take at least as long as their
+  heading and gimbal turns, and between two photos at least the camera's shortest photo
+  interval.
+
+The speeds along the flight are then the highest that accelerate and brake within ``a`` (a
+forward and a backward pass, each a running minimum); each leg is a trapezoidal speed profile
+between its end speeds. Where a bound is under ``min_pass_speed`` the drone stops, hovering
+``photo_seconds`` at a photo, as the stopping model does. docs/flights.md states the terms.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from coverplan.equipment.drones import SURVEY_SHUTTER_S
+from coverplan.errors import ParameterError
+from coverplan.geometry.orientation import camera_axes
+
+
+@dataclass(frozen=True)
+class PassRules:
+    """When and how fast the drone may take a photo (or pass a transit point) without stopping."""
+
+    max_blur_px: float = 1.0  # image motion during the exposure, pixels
+    max_photo_offset_m: float = 0.1  # from the planned photo point to where it is taken
+    max_turn_deg: float = 90.0  # a waypoint where the path turns more is a stop
+    max_damping_m: float = 2.0  # the turn starts at most this far before the waypoint
+    damping_share: float = 0.4  # and within this share of the shorter leg (both turns fit a leg)
+    min_pass_speed: float = 0.3  # m/s: slower than this the drone stops instead
+
+    def __post_init__(self):
+        for name, value in asdict(self).items():
+            if not (np.isfinite(value) and value > 0):
+                raise ParameterError(f"pass rule {name.replace('_', ' ')} must be a positive number, got {value!r}")
+        if self.max_turn_deg >= 180.0:
+            raise ParameterError(f"pass rule max turn deg must be below 180, got {self.max_turn_deg!r}")
+        if self.damping_share >= 0.5:
+            raise ParameterError(f"pass rule damping share must be below 0.5, got {self.damping_share!r}")
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+@dataclass
+class PassPlan:
+    """How one flight's waypoints are flown through.
+
+    speed : (n,) float
+        m/s at each waypoint; 0 where the drone stops.
+    damping_m : (n,) float
+        How far before (and after) the waypoint the turn starts; 0 at stops and straight passes
+        keep the value the exporter writes.
+    offset : (n, 3) float
+        Where the drone passes minus the waypoint: 0 at stops.
+    leg_seconds : (n - 1,) float
+        Time of each leg.
+    hover_seconds : (n,) float
+        Time hovering at each waypoint (photos taken at a stop).
+    """
+
+    speed: np.ndarray
+    damping_m: np.ndarray
+    offset: np.ndarray
+    leg_seconds: np.ndarray
+    hover_seconds: np.ndarray
+
+    @property
+    def passing(self) -> np.ndarray:
+        """(n,) bool: flown through without stopping."""
+        return self.speed > 0
+
+
+def _unit(v) -> tuple[np.ndarray, np.ndarray]:
+    length = np.linalg.norm(v, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = np.where(length[:, None] > 1e-9, v / length[:, None], 0.0)
+    return u, length
+
+
+def turn_angles(positions) -> np.ndarray:
+    """(n,) degrees the path turns at each waypoint (0 at the ends and where a leg is empty)."""
+    p = np.asarray(positions, dtype=float).reshape(-1, 3)
+    theta = np.zeros(len(p))
+    if len(p) < 3:
+        return theta
+    u, _ = _unit(np.diff(p, axis=0))
+    cos = np.clip(np.einsum("ij,ij->i", u[:-1], u[1:]), -1.0, 1.0)
+    empty = (np.linalg.norm(u[:-1], axis=1) == 0) | (np.linalg.norm(u[1:], axis=1) == 0)
+    theta[1:-1] = np.where(empty, 180.0, np.degrees(np.arccos(cos)))
+    return theta
+
+
+def leg_top_speeds(model, positions, heading_deg, pitch_deg, shot, photo_interval_s: float) -> np.ndarray:
+    """(n - 1,) the highest speed on each leg: within the cruise speed horizontally and the
+    climb / descent rate vertically, no faster than the heading and gimbal turn over it, and
+    between two photos at least ``photo_interval_s`` from one to the next."""
+    p = np.asarray(positions, dtype=float).reshape(-1, 3)
+    length = np.linalg.norm(np.diff(p, axis=0), axis=1)
+    top = model.top_speeds(p[:-1], p[1:])
+    turn = model.rotation_seconds(heading_deg, pitch_deg)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        top = np.minimum(top, np.where(turn > 0, length / turn, np.inf))
+    rows = np.flatnonzero(shot)
+    if len(rows) > 1:
+        arc = np.concatenate([[0.0], np.cumsum(length)])
+        stretch = np.searchsorted(rows, np.arange(len(length)), side="right") - 1
+        inside = (stretch >= 0) & (stretch < len(rows) - 1)
+        between = np.zeros(len(length))
+        s = stretch[inside]
+        between[inside] = arc[rows[s + 1]] - arc[rows[s]]
+        top = np.where(inside, np.minimum(top, between / photo_interval_s), top)
+    return top
+
+
+def reachable_speeds(bound, length, acceleration: float) -> np.ndarray:
+    """(n,) the highest speeds within ``bound`` (n,) that accelerate and brake within
+    ``acceleration`` over the legs ``length`` (n - 1,): v_k^2 <= b_j^2 + 2 a |s_k - s_j| for all j,
+    as two running minima."""
+    b2 = np.asarray(bound, dtype=float) ** 2
+    s = np.concatenate([[0.0], np.cumsum(length)])
+    two_a = 2.0 * acceleration
+    forward = two_a * s + np.minimum.accumulate(b2 - two_a * s)
+    backward = -two_a * s + np.minimum.accumulate((b2 + two_a * s)[::-1])[::-1]
+    return np.sqrt(np.clip(np.minimum(forward, backward), 0.0, None))
+
+
+def trapezoid_seconds(length, entry, exit_, top, acceleration: float) -> np.ndarray:
+    """(m,) time over legs of ``length`` from speed ``entry`` to ``exit_`` with at most ``top``,
+    speeding up and braking at ``acceleration`` (the end speeds must be reachable)."""
+    L, u, w = (np.asarray(x, dtype=float) for x in (length, entry, exit_))
+    V = np.maximum(np.asarray(top, dtype=float), np.maximum(u, w))
+    a = acceleration
+    ramps = (2.0 * V ** 2 - u ** 2 - w ** 2) / (2.0 * a)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cruise = (V - u) / a + (V - w) / a + (L - ramps) / V
+        peak = np.sqrt(np.clip(a * L + 0.5 * (u ** 2 + w ** 2), 0.0, None))
+        short = (2.0 * peak - u - w) / a
+    return np.where(L <= 0, 0.0, np.where(ramps <= L, cruise, short))
+
+
+def pass_plan(model, positions, shot, heading_deg, pitch_deg, nearest_m, *, pixel_angle: float,
+              shutter_s: float, photo_interval_s: float, rules: PassRules = PassRules(),
+              stops=None) -> PassPlan:
+    """How one flight (take-off at the first waypoint, landing at the last) is flown through.
+
+    Parameters
+    ----------
+    model : FlightModel
+        Speeds, acceleration, rotation rates and the hover at a photo taken at a stop.
+    positions : (n, 3) float
+    shot : (n,) bool
+    heading_deg, pitch_deg : (n,) float
+        Transit waypoints face the way they fly, as the planner writes them.
+    nearest_m : (n,) float
+        At photos: the nearest surface in the frame (the range its blur is judged at).
+    pixel_angle : float
+        Radians one pixel spans (pixel pitch / focal length).
+    shutter_s, photo_interval_s : float
+        The exposure and the camera's shortest time between two photos.
+    rules : PassRules
+    stops : (n,) bool, optional
+        Waypoints that must be stops whatever the rules say (a cut corner found unsafe).
+
+    Returns
+    -------
+    PassPlan
+    """
+    p = np.asarray(positions, dtype=float).reshape(-1, 3)
+    n = len(p)
+    shot = np.asarray(shot, dtype=bool)
+    zero = np.zeros(n)
+    hover = np.where(shot, model.photo_seconds, 0.0)
+    if n < 2:
+        return PassPlan(zero, zero.copy(), np.zeros((n, 3)), np.zeros(0), hover)
+    u, length = _unit(np.diff(p, axis=0))
+    theta = np.radians(turn_angles(p))
+    before = np.concatenate([[0.0], length])
+    after = np.concatenate([length, [0.0]])
+    damping = np.minimum(rules.max_damping_m, rules.damping_share * np.minimum(before, after))
+    quarter = np.tan(theta / 4.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        damping = np.where(shot & (quarter > 0), np.minimum(damping, rules.max_photo_offset_m / quarter), damping)
+    # whole millimetres, rounded down: the route file and the exports then hold exactly the turn judged
+    damping = np.floor(damping * 1000.0) / 1000.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        radius = np.where(theta > 1e-9, damping / np.tan(np.minimum(theta, np.pi * 0.999) / 2.0), np.inf)
+    corner = np.sqrt(model.acceleration * radius)
+
+    top = leg_top_speeds(model, p, heading_deg, pitch_deg, shot, photo_interval_s)
+    top_before = np.concatenate([[0.0], top])
+    top_after = np.concatenate([top, [0.0]])
+    turn = np.radians(np.abs((np.diff(np.asarray(heading_deg, dtype=float)) + 180.0) % 360.0 - 180.0)
+                      + np.abs(np.diff(np.asarray(pitch_deg, dtype=float))))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        per_m = np.where(length > 0, turn / length, 0.0)
+    per_m = np.maximum(np.concatenate([[0.0], per_m]), np.concatenate([per_m, [0.0]]))
+    near = np.maximum(np.asarray(nearest_m, dtype=float), 1e-3)
+    with np.errstate(divide="ignore"):
+        blur = rules.max_blur_px * pixel_angle / (shutter_s * (1.0 / near + per_m))
+    bound = np.minimum.reduce([corner, top_before, top_after, np.where(shot, blur, np.inf)])
+    interior = np.zeros(n, dtype=bool)
+    interior[1:-1] = True
+    can = interior & (theta <= np.radians(rules.max_turn_deg)) & (damping >= 1e-3)
+    if stops is not None:
+        can &= ~np.asarray(stops, dtype=bool)
+    can &= bound >= rules.min_pass_speed
+    bound = np.where(can, bound, 0.0)
+    speed = reachable_speeds(bound, length, model.acceleration)
+    speed = np.where(can, speed, 0.0)
+    legs = trapezoid_seconds(length, speed[:-1], speed[1:], top, model.acceleration)
+    legs = np.maximum(legs, model.rotation_seconds(heading_deg, pitch_deg))
+    damping = np.where(can, damping, 0.0)
+    return PassPlan(speed, damping, corner_offsets(p, damping), legs, np.where(can, 0.0, hover))
+
+
+def corner_offsets(positions, damping_m) -> np.ndarray:
+    """(n, 3) where the drone passes each waypoint minus the waypoint: ``d tan(theta / 4)`` into
+    the turn for a turn starting ``damping_m`` (n,) before it; 0 where the damping is 0."""
+    p = np.asarray(positions, dtype=float).reshape(-1, 3)
+    d = np.asarray(damping_m, dtype=float).reshape(-1)
+    if len(p) < 3:
+        return np.zeros_like(p)
+    u, _ = _unit(np.diff(p, axis=0))
+    inward, _ = _unit(np.concatenate([np.zeros((1, 3)), u[1:] - u[:-1], np.zeros((1, 3))]))
+    quarter = np.tan(np.radians(turn_angles(p)) / 4.0)
+    return inward * np.where(d > 0, d * quarter, 0.0)[:, None]
+
+
+def nearest_in_frame(rays, positions, heading_deg, pitch_deg, camera, max_range: float, grid: int = 7) -> np.ndarray:
+    """(n,) the nearest surface each photo sees: the shortest of ``grid`` x ``grid`` rays over its
+    frame (``max_range`` where none hits)."""
+    p = np.asarray(positions, dtype=float).reshape(-1, 3)
+    if not len(p):
+        return np.zeros(0)
+    right, up, forward = camera_axes(heading_deg, pitch_deg)
+    s = np.linspace(-1.0, 1.0, grid)
+    gx, gy = (a.ravel() for a in np.meshgrid(s * camera.tan_half_hfov, s * camera.tan_half_vfov))
+    dirs = forward[:, None, :] + gx[None, :, None] * right[:, None, :] + gy[None, :, None] * up[:, None, :]
+    dirs /= np.linalg.norm(dirs, axis=2, keepdims=True)
+    origins = np.repeat(p, grid * grid, axis=0)
+    dist, _, _ = rays.first_hit(origins, dirs.reshape(-1, 3), max_distance=max_range)
+    # a ray's length is not the range along the view axis; the axis depth is what blur scales with
+    depth = dist.reshape(len(p), -1) * np.einsum("nkj,nj->nk", dirs, forward)
+    return np.minimum(np.where(np.isfinite(depth), depth, max_range).min(axis=1), max_range)
+
+
+def flown_path(positions, damping_m) -> np.ndarray:
+    """(m, 3) the polyline the drone flies: each waypoint flown through (``damping_m`` > 0)
+    replaced by where its turn starts, where it passes the waypoint and where the turn ends
+    (the arc lies within that corner of the triangle), the others kept."""
+    p = np.asarray(positions, dtype=float).reshape(-1, 3)
+    d = np.asarray(damping_m, dtype=float).reshape(-1)
+    if len(p) < 3:
+        return p.copy()
+    u, _ = _unit(np.diff(p, axis=0))
+    pieces = np.stack([p - d[:, None] * np.concatenate([np.zeros((1, 3)), u]),
+                       p + corner_offsets(p, d),
+                       p + d[:, None] * np.concatenate([u, np.zeros((1, 3))])], axis=1)
+    keep = np.ones((len(p), 3), dtype=bool)
+    keep[:, [0, 2]] = (d > 0)[:, None]
+    return pieces[keep]
+
+
+def corner_rows(damping_m) -> np.ndarray:
+    """(m,) the waypoint each point of :func:`flown_path` belongs to."""
+    d = np.asarray(damping_m, dtype=float).reshape(-1)
+    counts = np.where(d > 0, 3, 1) if len(d) >= 3 else np.ones(len(d), dtype=int)
+    return np.repeat(np.arange(len(d)), counts)
+
+
+def camera_timing(camera, drone=None, model=None) -> dict:
+    """The camera's side of flying through, as :func:`fly_through` takes it: a pixel's angle,
+    the exposure and the shortest photo interval (the drone profile's; without one a survey
+    exposure and the flight model's photo time)."""
+    interval = drone.photo_interval_s if drone is not None else (model.photo_seconds if model is not None else 1.0)
+    return {"pixel_angle": camera.pixel_pitch_mm / camera.focal_length_mm,
+            "shutter_s": drone.shutter_s if drone is not None else SURVEY_SHUTTER_S,
+            "photo_interval_s": interval}
+
+
+def route_pass_plan(route, model, nearest_m, *, pixel_angle: float, shutter_s: float, photo_interval_s: float,
+                    rules: PassRules = PassRules(), stops=None) -> PassPlan:
+    """:func:`pass_plan` of every battery flight of ``route``, as route-wide arrays (the leg from
+    one flight's landing to the next take-off is not flown: 0 s)."""
+    n = len(route.positions)
+    speed, damping, hover = np.zeros(n), np.zeros(n), np.zeros(n)
+    offset, legs = np.zeros((n, 3)), np.zeros(max(n - 1, 0))
+    for rows in route.flight_rows():
+        plan = pass_plan(model, route.positions[rows], route.shot[rows], route.heading_deg[rows],
+                         route.pitch_deg[rows], np.asarray(nearest_m)[rows], pixel_angle=pixel_angle,
+                         shutter_s=shutter_s, photo_interval_s=photo_interval_s, rules=rules,
+                         stops=None if stops is None else np.asarray(stops)[rows])
+        speed[rows], damping[rows], offset[rows], hover[rows] = plan.speed, plan.damping_m, plan.offset, \
+            plan.hover_seconds
+        legs[rows[:-1]] = plan.leg_seconds
+    return PassPlan(speed, damping, offset, legs, hover)
+
+
+def pass_minutes(route, plan: PassPlan, model) -> list[float]:
+    """Minutes of each battery flight of ``route`` flown through by ``plan``, take-off and
+    landing included."""
+    out = []
+    for rows in route.flight_rows():
+        height = float(route.positions[rows[0], 2] - route.takeoff_z)
+        seconds = plan.leg_seconds[rows[:-1]].sum() + plan.hover_seconds[rows].sum() \
+            + model.takeoff_landing_seconds(height)
+        out.append(float(seconds) / 60.0)
+    return out
+
+
+def fly_through(route, scene, limits, model, *, pixel_angle: float, shutter_s: float, photo_interval_s: float,
+                rules: PassRules = PassRules(), max_rounds: int = 4) -> dict:
+    """Plan ``route``'s passes in place (``route.pass_speed``, ``route.turn_damping``) and return
+    what the summary shows of them.
+
+    The turns it cuts are checked as the final check checks the route: every piece of the
+    flown path keeps the security distance and stays out of the zones; a waypoint whose turn
+    does not becomes a stop, and the plan is made again.
+    """
+    nearest = np.full(len(route), np.inf)
+    shots = route.shots
+    reach = 4.0 * max(route.d_opt, route.security)
+    nearest[shots] = nearest_in_frame(scene.rays, route.positions[shots], route.heading_deg[shots],
+                                      route.pitch_deg[shots], route.camera, reach)
+    clearance = scene.clearance_model(limits.security)
+    stops = np.zeros(len(route), dtype=bool)
+    for _ in range(max_rounds):
+        plan = route_pass_plan(route, model, nearest, pixel_angle=pixel_angle, shutter_s=shutter_s,
+                               photo_interval_s=photo_interval_s, rules=rules, stops=stops)
+        bad = np.zeros(len(route), dtype=bool)
+        for rows in route.flight_rows():
+            damping = plan.damping_m[rows]
+            path, owner = flown_path(route.positions[rows], damping), rows[corner_rows(damping)]
+            if len(path) < 2:
+                continue
+            ok = clearance.segments_clear(path[:-1], path[1:], limits.security) \
+                & limits.segments_allowed(path[:-1], path[1:]) & limits.allowed(path[1:])
+            bad[owner[:-1][~ok]] = True
+            bad[owner[1:][~ok]] = True
+        bad &= plan.passing
+        if not bad.any():
+            break
+        stops |= bad
+    else:
+        plan = route_pass_plan(route, model, nearest, pixel_angle=pixel_angle, shutter_s=shutter_s,
+                               photo_interval_s=photo_interval_s, rules=rules, stops=np.ones(len(route), bool))
+    route.pass_speed, route.turn_damping = plan.speed, plan.damping_m
+    minutes = pass_minutes(route, plan, model)
+    in_passing = plan.passing & route.shot
+    offsets = np.linalg.norm(plan.offset, axis=1)
+    return {"minutes": float(sum(minutes)), "flight_minutes": minutes,
+            "photos_in_passing": int(in_passing.sum()), "photos": int(route.shot.sum()),
+            "waypoints_flown_through": int(plan.passing.sum()), "corner_stops": int(stops.sum()),
+            "max_photo_offset_m": float(offsets[route.shot].max()) if route.shot.any() else 0.0,
+            "fastest_photo_mps": float(plan.speed[route.shot].max()) if route.shot.any() else 0.0,
+            "rules": rules.to_dict()}
+
+
+def leg_speeds(route, cruise_speed: float) -> np.ndarray:
+    """(n,) the speed each waypoint's exported leg to the next is flown at: the cruise speed,
+    slowed to the pass speed of either end that is flown through (DJI's ``waypointSpeed``, a
+    ``DO_CHANGE_SPEED`` before a MAVLink waypoint). The last waypoint keeps the cruise speed."""
+    n = len(route.positions)
+    out = np.full(n, float(cruise_speed))
+    if route.pass_speed is None or n < 2:
+        return out
+    v = np.where(route.pass_speed > 0, route.pass_speed, np.inf)
+    out[:-1] = np.minimum(out[:-1], np.minimum(v[:-1], v[1:]))
+    return out
+
+
+def route_leg_seconds(route, model, photo_interval_s: float) -> np.ndarray:
+    """(n - 1,) each leg's time as the route is flown: through its recorded pass speeds (from
+    rest to rest where it stops), no faster than :func:`leg_top_speeds`; 0 between battery
+    flights."""
+    n = len(route.positions)
+    legs = np.zeros(max(n - 1, 0))
+    speed = route.pass_speed if route.pass_speed is not None else np.zeros(n)
+    for rows in route.flight_rows():
+        if len(rows) < 2:
+            continue
+        p = route.positions[rows]
+        top = leg_top_speeds(model, p, route.heading_deg[rows], route.pitch_deg[rows], route.shot[rows],
+                             photo_interval_s)
+        v = speed[rows]
+        t = trapezoid_seconds(np.linalg.norm(np.diff(p, axis=0), axis=1), v[:-1], v[1:], top, model.acceleration)
+        legs[rows[:-1]] = np.maximum(t, model.rotation_seconds(route.heading_deg[rows], route.pitch_deg[rows]))
+    return legs
+
+
+def travel_directions(positions) -> np.ndarray:
+    """(n, 3) unit direction of travel at each waypoint: along the bisector of its two legs."""
+    p = np.asarray(positions, dtype=float).reshape(-1, 3)
+    if len(p) < 2:
+        return np.zeros_like(p)
+    u, _ = _unit(np.diff(p, axis=0))
+    t, _ = _unit(np.concatenate([u[:1], u]) + np.concatenate([u, u[-1:]]))
+    return t
