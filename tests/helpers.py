@@ -41,3 +41,38 @@ def load_script(path: Path):
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
     return module
+
+
+def mavsdk_upload(plan_path):
+    """Read a ``.plan`` with MAVSDK's own QGroundControl importer and upload its mission over
+    MAVLink to a MAVSDK autopilot (``MissionRawServer``) on 127.0.0.1.
+
+    Returns the imported data, the ground station's MissionRaw plugin (to upload more over the
+    same link) and the item count the autopilot received (None when nothing arrived within
+    10 s). The link lives as long as the plugin does."""
+    import socket
+    import threading
+
+    import mavsdk
+    from mavsdk.plugins.mission_raw import MissionRaw
+    from mavsdk.plugins.mission_raw_server import MissionRawServer
+
+    autopilot = mavsdk.Mavsdk(mavsdk.Configuration.create_with_component_type(mavsdk.ComponentType.AUTOPILOT))
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:  # a free UDP port on loopback
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    assert autopilot.add_any_connection(f"udpout://127.0.0.1:{port}") == mavsdk.ConnectionResult.SUCCESS
+    server = MissionRawServer(autopilot.server_component())
+    arrived, done = [], threading.Event()
+    server.subscribe_incoming_mission(lambda result, mission, _ud: (arrived.append(len(mission.mission_items)),
+                                                                    done.set()))
+    ground = mavsdk.Mavsdk(mavsdk.Configuration.create_with_component_type(mavsdk.ComponentType.GROUND_STATION))
+    assert ground.add_any_connection(f"udpin://127.0.0.1:{port}") == mavsdk.ConnectionResult.SUCCESS
+    system = ground.first_autopilot(10.0)
+    assert system is not None
+    mission = MissionRaw(system)
+    mission._keep_alive = (autopilot, server, ground, system)  # the link closes with these
+    data = mission.import_qgroundcontrol_mission(str(plan_path))
+    mission.upload_mission(data.mission_items)
+    count = arrived[0] if done.wait(10) and arrived else None
+    return data, mission, count

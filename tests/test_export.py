@@ -22,7 +22,7 @@ from tests.helpers import MESHES
 
 HOUSE = "FZK_GUID_1F3E679D-E226-4535-926C-7390977FB25A"
 GEOD = Geod(ellps="WGS84")
-MAV_COMMANDS = {16, 20, 22, 1000, 2000}
+MAV_COMMANDS = {16, 20, 22, 178, 1000, 2000}  # 178: DO_CHANGE_SPEED, where a route flown through slows
 
 
 @pytest.fixture(scope="module")

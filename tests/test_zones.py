@@ -6,8 +6,6 @@ geofence is read back by MAVSDK's own QGroundControl importer and uploaded over 
 from __future__ import annotations
 
 import json
-import socket
-import threading
 
 import numpy as np
 import pytest
@@ -21,7 +19,7 @@ from coverplan.cli import main
 from coverplan.flight.route import Route
 from coverplan.io.zones import read_zones
 from coverplan.world.zones import Zone, Zones
-from tests.helpers import MESHES
+from tests.helpers import MESHES, mavsdk_upload
 
 CITY = MESHES / "citygml" / "lod2_buildings_v2.json.gz"
 HOUSE = "FZK_GUID_1F3E679D-E226-4535-926C-7390977FB25A"  # 6 x 8 m, 11 m ridge, corner at (0, 0)
@@ -104,27 +102,8 @@ def test_the_surface_only_the_street_sees_is_reported_and_the_rest_covered(stree
 def test_the_geofence_reaches_the_autopilot(street_plan, city):
     """MAVSDK's own importer reads the .plan's geofence; the mission and the fence are uploaded
     over MAVLink to a MAVSDK autopilot on 127.0.0.1, and every mission item arrives."""
-    import mavsdk
-    from mavsdk.plugins.mission_raw import MissionRaw
-    from mavsdk.plugins.mission_raw_server import MissionRawServer
-
     out, route, street = street_plan
-    plan_path = out.with_suffix(".plan")
-    autopilot = mavsdk.Mavsdk(mavsdk.Configuration.create_with_component_type(mavsdk.ComponentType.AUTOPILOT))
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:  # a free UDP port on loopback
-        probe.bind(("127.0.0.1", 0))
-        port = probe.getsockname()[1]
-    assert autopilot.add_any_connection(f"udpout://127.0.0.1:{port}") == mavsdk.ConnectionResult.SUCCESS
-    server = MissionRawServer(autopilot.server_component())
-    arrived, done = [], threading.Event()
-    server.subscribe_incoming_mission(lambda result, mission, _ud: (arrived.append(len(mission.mission_items)),
-                                                                    done.set()))
-    ground = mavsdk.Mavsdk(mavsdk.Configuration.create_with_component_type(mavsdk.ComponentType.GROUND_STATION))
-    assert ground.add_any_connection(f"udpin://127.0.0.1:{port}") == mavsdk.ConnectionResult.SUCCESS
-    system = ground.first_autopilot(10.0)
-    assert system is not None
-    mission = MissionRaw(system)
-    data = mission.import_qgroundcontrol_mission(str(plan_path))
+    data, mission, arrived = mavsdk_upload(out.with_suffix(".plan"))
     fence = data.geofence_items
     assert [f.command for f in fence] == [FENCE_EXCLUSION] * 4
     assert all(int(f.param1) == 4 for f in fence)  # one polygon of four vertices
@@ -133,8 +112,7 @@ def test_the_geofence_reaches_the_autopilot(street_plan, city):
     x, y = Transformer.from_crs("EPSG:4326", city[1].crs, always_xy=True).transform(lon, lat)
     local = city[1].to_local(np.column_stack([x, y, np.zeros(len(x))]))[:, :2]
     assert shapely.Polygon(local).symmetric_difference(street).area < 0.01 * street.area
-    mission.upload_mission(data.mission_items)
-    assert done.wait(10) and arrived == [len(data.mission_items)]
+    assert arrived == len(data.mission_items)
     mission.upload_geofence(fence)
     assert len(data.mission_items) >= 2 * int(route.shot.sum())  # a waypoint and a photo per shot at least
 

@@ -40,6 +40,8 @@ class Mission:
     source: str
     home: tuple[float, float] | None = None  # lat, lon of the take-off point
     notes: list[str] = field(default_factory=list)
+    pass_speed: np.ndarray | None = None  # m/s where the app flies through a waypoint, else 0
+    turn_damping: np.ndarray | None = None  # m before such a waypoint that its turn starts
 
     def __len__(self) -> int:
         return len(self.lat)
@@ -51,6 +53,7 @@ class MissionBuilder:
     def __init__(self, path, source: str):
         self.path, self.source = Path(path), source
         self.rows: list[list] = []  # lat, lon, alt, ref, heading, pitch, shot
+        self.passes: dict[int, tuple[float, float]] = {}  # row -> (pass speed, turn damping)
         self.heading = np.nan
         self.pitch = np.nan
         self.notes: list[str] = []
@@ -66,6 +69,12 @@ class MissionBuilder:
             self.heading = float(heading)
         self.rows.append([float(lat), float(lon), float(alt), ref, self.heading, self.pitch, False])
 
+    def flown_through(self, damping_m: float, speed: float) -> None:
+        """The last waypoint is flown through, its turn starting ``damping_m`` before it."""
+        if self.rows and np.isfinite(damping_m) and damping_m > 0:
+            self.passes[len(self.rows) - 1] = (float(speed) if np.isfinite(speed) and speed > 0 else 1.0,
+                                               float(damping_m))
+
     def photo(self) -> None:
         if not self.rows:
             raise InputFileError(self.path, "takes a photo before its first waypoint")
@@ -79,9 +88,14 @@ class MissionBuilder:
         if not self.rows:
             raise InputFileError(self.path, "has no waypoints")
         cols = list(zip(*self.rows))
+        speed = damping = None
+        if self.passes:
+            speed, damping = np.zeros(len(self.rows)), np.zeros(len(self.rows))
+            for k, (v, d) in self.passes.items():
+                speed[k], damping[k] = v, d
         return Mission(np.array(cols[0]), np.array(cols[1]), np.array(cols[2]), np.array(cols[3]),
                        np.array(cols[4], dtype=float), np.array(cols[5], dtype=float), np.array(cols[6], dtype=bool),
-                       self.source, home, self.notes)
+                       self.source, home, self.notes, speed, damping)
 
 
 def mission_to_route(mission: Mission, scene, camera, gsd: float, security: float, params: dict | None = None):
@@ -134,6 +148,7 @@ def mission_to_route(mission: Mission, scene, camera, gsd: float, security: floa
          "max_incidence_deg": 70.0, "min_altitude_m": float(security), "ground_z_m": float(scene.ground_z),
          "rule": "sfm", "max_pair_deg": rule.max_pair_deg, "min_overlap": rule.min_overlap,
          "min_neighbours": rule.min_neighbours, **(params or {})}
-    route = Route(positions, mission.shot, heading, pitch, legs, camera, p, frame=frame)
+    route = Route(positions, mission.shot, heading, pitch, legs, camera, p, frame=frame,
+                  pass_speed=mission.pass_speed, turn_damping=mission.turn_damping)
     route.extra = {"notes": notes, "source": mission.source}
     return route

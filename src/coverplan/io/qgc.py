@@ -4,6 +4,12 @@ Mission: take-off, then per waypoint a MAV_CMD_NAV_WAYPOINT (yaw = true heading,
 relative to home in MAV_FRAME_GLOBAL_RELATIVE_ALT); at shots a gimbal pitch
 (MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW) and one photo (MAV_CMD_IMAGE_START_CAPTURE); return to
 launch at the end. NaN parameters are written as null, as QGroundControl does.
+
+A route flown through (flight/passing.py) keeps hold 0 at every waypoint; a waypoint flown
+through gets an acceptance radius (param 2): the photo's offset bound at a photo, the turn's
+damping distance at a transit point, so the photo is taken within that distance of the
+planned point. A MAV_CMD_DO_CHANGE_SPEED before a waypoint sets the leg's speed where it
+changes (the cruise speed, slowed to the pass speed of an end flown through).
 """
 
 from __future__ import annotations
@@ -17,12 +23,14 @@ import numpy as np
 from coverplan.errors import InputFileError
 from coverplan.files import read_json, write_atomic
 from coverplan.flight.missions import AMSL, TAKEOFF, MissionBuilder
+from coverplan.flight.passing import PassRules, leg_speeds
 from coverplan.io.geoflight import geo_flight, geo_zones
 from coverplan.io.qgc_complex import expand_complex_item
 from coverplan.io.registry import register_mission_reader, register_writer
 from coverplan.world.zones import KEEP_IN
 
 NAV_WAYPOINT, NAV_RETURN_TO_LAUNCH, NAV_TAKEOFF = 16, 20, 22
+DO_CHANGE_SPEED, SPEED_GROUND = 178, 1
 DO_GIMBAL_MANAGER_PITCHYAW, IMAGE_START_CAPTURE = 1000, 2000
 FRAME_GLOBAL, FRAME_MISSION, FRAME_GLOBAL_RELATIVE_ALT = 0, 2, 3
 FIRMWARE = {"px4": 12, "ardupilot": 3}
@@ -30,13 +38,24 @@ MAV_TYPE_QUADROTOR = 2
 NAN = float("nan")
 
 
-def mission_items(route) -> list[tuple[int, int, list[float]]]:
+def mission_items(route, speed: float = 5.0) -> list[tuple[int, int, list[float]]]:
     """(command, frame, 7 params) for the whole flight, take-off to return."""
     f = geo_flight(route)
     items = [(NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, [0.0, 0.0, 0.0, NAN, f.lat[0], f.lon[0], f.alt_rel[0]])]
+    through = route.flies_through
+    if through:
+        passing = route.passing()
+        offset_bound = float((route.metrics.get("fly_through") or {}).get("rules", {}).get(
+            "max_photo_offset_m", PassRules().max_photo_offset_m))
+        radius = np.where(route.shot, offset_bound, route.turn_damping) * passing
+        legs, current = leg_speeds(route, speed), float(speed)
     for k in range(1, len(f)):
+        if through and abs(legs[k - 1] - current) > 1e-3:
+            current = float(legs[k - 1])
+            items.append((DO_CHANGE_SPEED, FRAME_MISSION, [SPEED_GROUND, round(current, 3), -1.0, 0.0, 0.0, 0.0, 0.0]))
+        accept = round(float(radius[k]), 3) if through else 0.0
         items.append((NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT,
-                      [0.0, 0.0, 0.0, round(float(f.heading_true[k]), 3), f.lat[k], f.lon[k], f.alt_rel[k]]))
+                      [0.0, accept, 0.0, round(float(f.heading_true[k]), 3), f.lat[k], f.lon[k], f.alt_rel[k]]))
         if f.shot[k]:
             items.append((DO_GIMBAL_MANAGER_PITCHYAW, FRAME_MISSION,
                           [round(float(f.pitch[k]), 3), 0.0, NAN, NAN, 0.0, 0.0, 0.0]))
@@ -54,7 +73,7 @@ def _json_param(v):
 def write_plan(route, path, firmware: str = "px4", speed: float = 5.0, **_ignored) -> list[Path]:
     f = geo_flight(route)
     items = []
-    for n, (command, frame, params) in enumerate(mission_items(route), start=1):
+    for n, (command, frame, params) in enumerate(mission_items(route, speed), start=1):
         items.append({"type": "SimpleItem", "autoContinue": True, "command": command, "doJumpId": n,
                       "frame": frame, "params": [_json_param(p) for p in params]})
     home_alt = f.home[2] if f.home[2] is not None else 0.0
@@ -96,11 +115,11 @@ def fence_polygons(route) -> list[dict]:
 
 
 @register_writer("wpl", ".waypoints")
-def write_wpl(route, path, **_ignored) -> list[Path]:
+def write_wpl(route, path, speed: float = 5.0, **_ignored) -> list[Path]:
     f = geo_flight(route)
     home_alt = f.home[2] if f.home[2] is not None else 0.0
     rows = ["QGC WPL 110", _wpl_row(0, 1, FRAME_GLOBAL, NAV_WAYPOINT, [0, 0, 0, 0, f.home[1], f.home[0], home_alt])]
-    for n, (command, frame, params) in enumerate(mission_items(route), start=1):
+    for n, (command, frame, params) in enumerate(mission_items(route, speed), start=1):
         rows.append(_wpl_row(n, 0, frame, command, params))
     return [write_atomic(path, "\n".join(rows) + "\n")]
 

@@ -1,11 +1,16 @@
 """DJI WPML missions (.kmz) for DJI Pilot 2 and FlightHub 2: ``wpmz/template.kml`` and
 ``wpmz/waylines.wpml`` as DJI's public WPML reference (Cloud API documentation) describes them.
 
-One waypoint per route waypoint, none dropped; the aircraft stops at each
-(toPointAndStopWithDiscontinuityCurvature), so it flies the planner's straight, checked
-segments. Headings turn evenly along each leg to the next waypoint's (smoothTransition); at
-a photo the action group turns the aircraft to its heading, the gimbal to its pitch, and
-takes the photo. The flight ends at the start point, directly above the take-off point, and
+One waypoint per route waypoint, none dropped. Where the route stops
+(toPointAndStopWithDiscontinuityCurvature) the aircraft flies the planner's straight, checked
+segments, and at a photo the action group turns the aircraft to its heading, the gimbal to
+its pitch, and takes the photo. Where the route flies through (flight/passing.py) the
+waypoint "turns before the waypoint, flies through" (toPointAndPassWithContinuityCurvature
+with useStraightLine 1 and the turn's damping distance, whose cut corner the planner checked);
+the gimbal turns to the photo's pitch along the leg that arrives there (gimbalEvenlyRotate,
+triggered betweenAdjacentPoints) and the photo is taken on reaching the point. Headings turn
+evenly along each leg to the next waypoint's (smoothTransition). Each leg's waypointSpeed is
+the cruise speed, slowed to the pass speed of an end flown through. The flight ends at the start point, directly above the take-off point, and
 lands there (finishAction autoLand); on signal loss it carries on with the mission
 (exitOnRCLost goContinue), whose every segment is known to be safe.
 
@@ -29,6 +34,7 @@ from coverplan.equipment.drones import get_drone
 from coverplan.errors import InputFileError, ParameterError
 from coverplan.files import write_atomic_bytes
 from coverplan.flight.missions import TAKEOFF, MissionBuilder
+from coverplan.flight.passing import leg_speeds
 from coverplan.geometry.geo import ellipsoidal_and_egm96
 from coverplan.io.geoflight import geo_flight
 from coverplan.io.registry import register_mission_reader, register_writer
@@ -113,25 +119,13 @@ def _heading_param(parent, heading: float) -> None:
     _add(hp, "waypointHeadingPathMode", "followBadArc")
 
 
-def _actions(parent, group_id: int, index: int, heading: float, pitch: float, prev_heading: float, photo: int,
-             lens: str) -> None:
+def _group(parent, group_id: int, start: int, end: int, trigger: str, steps) -> None:
     group = _add(parent, "actionGroup")
     _add(group, "actionGroupId", group_id)
-    _add(group, "actionGroupStartIndex", index)
-    _add(group, "actionGroupEndIndex", index)
+    _add(group, "actionGroupStartIndex", start)
+    _add(group, "actionGroupEndIndex", end)
     _add(group, "actionGroupMode", "sequence")
-    _add(_add(group, "actionTrigger"), "actionTriggerType", "reachPoint")
-    turn = (heading - prev_heading + 180.0) % 360.0 - 180.0
-    steps = [("rotateYaw", [("aircraftHeading", round(float(heading), 2)),
-                            ("aircraftPathMode", "clockwise" if turn >= 0 else "counterClockwise")]),
-             ("gimbalRotate", [("gimbalHeadingYawBase", "north"), ("gimbalRotateMode", "absoluteAngle"),
-                               ("gimbalPitchRotateEnable", 1), ("gimbalPitchRotateAngle", round(float(pitch), 2)),
-                               ("gimbalRollRotateEnable", 0), ("gimbalRollRotateAngle", 0),
-                               ("gimbalYawRotateEnable", 0), ("gimbalYawRotateAngle", 0),
-                               ("gimbalRotateTimeEnable", 0), ("gimbalRotateTime", 0),
-                               ("payloadPositionIndex", 0)]),
-             ("takePhoto", [("payloadPositionIndex", 0), ("fileSuffix", f"coverplan{photo:04d}"),
-                            ("payloadLensIndex", lens), ("useGlobalPayloadLensIndex", 0)])]
+    _add(_add(group, "actionTrigger"), "actionTriggerType", trigger)
     for action_id, (func, params) in enumerate(steps):
         action = _add(group, "action")
         _add(action, "actionId", action_id)
@@ -141,35 +135,82 @@ def _actions(parent, group_id: int, index: int, heading: float, pitch: float, pr
             _add(fp, tag, value)
 
 
-def _placemark(folder, k, f, heading, executed: bool, heights, speed, action_state, lens) -> None:
+def _photo_step(photo: int, lens: str):
+    return ("takePhoto", [("payloadPositionIndex", 0), ("fileSuffix", f"coverplan{photo:04d}"),
+                          ("payloadLensIndex", lens), ("useGlobalPayloadLensIndex", 0)])
+
+
+def _actions(parent, group_id: int, index: int, heading: float, pitch: float, prev_heading: float, photo: int,
+             lens: str) -> None:
+    """At a stop: turn to the heading, the gimbal to the pitch, take the photo."""
+    turn = (heading - prev_heading + 180.0) % 360.0 - 180.0
+    steps = [("rotateYaw", [("aircraftHeading", round(float(heading), 2)),
+                            ("aircraftPathMode", "clockwise" if turn >= 0 else "counterClockwise")]),
+             ("gimbalRotate", [("gimbalHeadingYawBase", "north"), ("gimbalRotateMode", "absoluteAngle"),
+                               ("gimbalPitchRotateEnable", 1), ("gimbalPitchRotateAngle", round(float(pitch), 2)),
+                               ("gimbalRollRotateEnable", 0), ("gimbalRollRotateAngle", 0),
+                               ("gimbalYawRotateEnable", 0), ("gimbalYawRotateAngle", 0),
+                               ("gimbalRotateTimeEnable", 0), ("gimbalRotateTime", 0),
+                               ("payloadPositionIndex", 0)]),
+             _photo_step(photo, lens)]
+    _group(parent, group_id, index, index, "reachPoint", steps)
+
+
+def _turn_param(parent, passing: bool, damping: float) -> None:
+    turn = _add(parent, "waypointTurnParam")
+    if passing:  # "turns before the waypoint, flies through" (DJI WPML common elements)
+        _add(turn, "waypointTurnMode", "toPointAndPassWithContinuityCurvature")
+        _add(turn, "waypointTurnDampingDist", round(float(damping), 3))
+    else:
+        _add(turn, "waypointTurnMode", "toPointAndStopWithDiscontinuityCurvature")
+        _add(turn, "waypointTurnDampingDist", 0)
+
+
+def _placemark(folder, k, f, heading, executed: bool, heights, speed, action_state, lens, passes) -> None:
     pm = etree.SubElement(folder, f"{{{KML}}}Placemark")
     point = _add(pm, "Point", kml=True)
     _add(point, "coordinates", f"{f.lon[k]:.9f},{f.lat[k]:.9f}", kml=True)
     _add(pm, "index", k)
     height, ellipsoid, execute = heights
+    passing, damping, leg_speed = passes[0][k], passes[1][k], passes[2][k]
     if executed:
         _add(pm, "executeHeight", round(float(execute[k]), 3))
-        _add(pm, "waypointSpeed", speed)
+        _add(pm, "waypointSpeed", round(float(leg_speed), 3))
         _heading_param(pm, heading[k])
-        turn = _add(pm, "waypointTurnParam")
-        _add(turn, "waypointTurnMode", "toPointAndStopWithDiscontinuityCurvature")
-        _add(turn, "waypointTurnDampingDist", 0)
+        _turn_param(pm, passing, damping)
         _add(pm, "useStraightLine", 1)
     else:
         _add(pm, "useGlobalHeight", 0)
         _add(pm, "ellipsoidHeight", round(float(ellipsoid[k]), 3))
         _add(pm, "height", round(float(height[k]), 3))
-        _add(pm, "useGlobalSpeed", 1)
+        if passes[3]:
+            _add(pm, "useGlobalSpeed", 0)
+            _add(pm, "waypointSpeed", round(float(leg_speed), 3))
+        else:
+            _add(pm, "useGlobalSpeed", 1)
         _add(pm, "useGlobalHeadingParam", 0)
         _heading_param(pm, heading[k])
-        _add(pm, "useGlobalTurnParam", 1)
+        if passing:
+            _add(pm, "useGlobalTurnParam", 0)
+            _turn_param(pm, passing, damping)
+        else:
+            _add(pm, "useGlobalTurnParam", 1)
         _add(pm, "useStraightLine", 1)
         _add(pm, "gimbalPitchAngle", round(float(f.pitch[k]), 2))
     if f.shot[k]:
-        prev = heading[k - 1] if k else heading[k]
-        _actions(pm, action_state["group"], k, heading[k], f.pitch[k], prev, action_state["photo"], lens)
+        if passing:  # heading by smoothTransition, pitch along the leg: only the photo here
+            _group(pm, action_state["group"], k, k, "reachPoint", [_photo_step(action_state["photo"], lens)])
+        else:
+            prev = heading[k - 1] if k else heading[k]
+            _actions(pm, action_state["group"], k, heading[k], f.pitch[k], prev, action_state["photo"], lens)
         action_state["group"] += 1
         action_state["photo"] += 1
+    if k + 1 < len(f) and passes[0][k + 1] and f.pitch[k + 1] != f.pitch[k]:
+        # the next waypoint is flown through: the gimbal reaches its pitch along the leg there
+        _group(pm, action_state["group"], k, k + 1, "betweenAdjacentPoints",
+               [("gimbalEvenlyRotate", [("gimbalPitchRotateAngle", round(float(f.pitch[k + 1]), 2)),
+                                        ("payloadPositionIndex", 0)])])
+        action_state["group"] += 1
 
 
 def _document(route, f, profile, heights, modes, speed: float, executed: bool) -> bytes:
@@ -209,8 +250,11 @@ def _document(route, f, profile, heights, modes, speed: float, executed: bool) -
         _add(payload, "payloadPositionIndex", 0)
         _add(payload, "imageFormat", profile.image_format)
     state = {"group": 0, "photo": 1}
+    passing = route.passing()
+    damping = route.turn_damping if route.turn_damping is not None else np.zeros(len(f))
+    passes = (passing, damping, leg_speeds(route, speed), route.flies_through)
     for k in range(len(f)):
-        _placemark(folder, k, f, heading, executed, heights, speed, state, profile.image_format)
+        _placemark(folder, k, f, heading, executed, heights, speed, state, profile.image_format, passes)
     return etree.tostring(root, xml_declaration=True, encoding="UTF-8", pretty_print=True)
 
 
@@ -240,11 +284,21 @@ def write_wpml(route, path, drone=None, speed: float | None = None, wpml_heights
 
 # -- reading, for the evaluator ------------------------------------------------------------
 
+def _number(text) -> float:
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
 @register_mission_reader("kmz")
 def read_wpml(path):
     """A DJI WPML .kmz as a Mission: the executable waylines.wpml's first wayline, heights
     relative to the take-off point; photos where a takePhoto action is, with the heading of
-    the group's rotateYaw (else the waypoint's heading angle) and the gimbalRotate pitch."""
+    the group's rotateYaw (else the waypoint's heading angle) and the gimbalRotate pitch (or
+    the pitch a gimbalEvenlyRotate reaches there). Waypoints flown through
+    (toPointAndPassWithContinuityCurvature) keep their turn damping distance, so that the
+    evaluator judges the corners they cut and the photos where the aircraft passes."""
     try:
         with zipfile.ZipFile(path) as kmz:
             data = kmz.read("wpmz/waylines.wpml")
@@ -265,7 +319,8 @@ def read_wpml(path):
         raise InputFileError(path, f"gives heights as {mode or 'nothing'}; only relativeToStartPoint missions can be "
                                    "evaluated (ellipsoidal heights need the geoid at the site)")
     b = MissionBuilder(path, "DJI WPML mission")
-    for pm in folder.findall("kml:Placemark", ns):
+    pending = {}  # waypoint index -> pitch a gimbalEvenlyRotate reaches there
+    for k, pm in enumerate(folder.findall("kml:Placemark", ns)):
         coords = (pm.findtext("kml:Point/kml:coordinates", default="", namespaces=ns) or "").strip().split(",")
         try:
             lon, lat = float(coords[0]), float(coords[1])
@@ -275,10 +330,20 @@ def read_wpml(path):
                 from None
         angle = pm.findtext("wpml:waypointHeadingParam/wpml:waypointHeadingAngle", namespaces=ns)
         b.waypoint(lat, lon, alt, TAKEOFF, heading=float(angle) if angle is not None else np.nan)
+        b.pitch = pending.pop(k, b.pitch)
+        if pm.findtext("wpml:waypointTurnParam/wpml:waypointTurnMode", namespaces=ns) == \
+                "toPointAndPassWithContinuityCurvature":
+            b.flown_through(_number(pm.findtext("wpml:waypointTurnParam/wpml:waypointTurnDampingDist", namespaces=ns)),
+                            _number(pm.findtext("wpml:waypointSpeed", namespaces=ns)))
         for action in pm.findall("wpml:actionGroup/wpml:action", ns):
             func = action.findtext("wpml:actionActuatorFunc", namespaces=ns)
             param = action.find("wpml:actionActuatorFuncParam", ns)
-            if func == "rotateYaw" and param is not None:
+            if func == "gimbalEvenlyRotate" and param is not None:
+                end = _number(action.getparent().findtext("wpml:actionGroupEndIndex", namespaces=ns))
+                if np.isfinite(end):
+                    pending[int(end)] = float(param.findtext("wpml:gimbalPitchRotateAngle", default="nan",
+                                                             namespaces=ns))
+            elif func == "rotateYaw" and param is not None:
                 b.heading = float(param.findtext("wpml:aircraftHeading", default="nan", namespaces=ns))
             elif func == "gimbalRotate" and param is not None and \
                     param.findtext("wpml:gimbalPitchRotateEnable", namespaces=ns) == "1":
