@@ -126,7 +126,25 @@ def actions(pm, func):
     return [a for a in pm.findall("wpml:actionGroup/wpml:action", NS) if one(a, "wpml:actionActuatorFunc") == func]
 
 
-@pytest.fixture(scope="module", params=["m3e", "m350-p1"])
+def held_pitch(marks) -> list:
+    """The gimbal pitch at each waypoint as the aircraft executes the actions: a gimbalRotate
+    on reaching it, or the end of a gimbalEvenlyRotate along the leg that arrives there."""
+    current, pending, out = None, {}, []
+    for k, pm in enumerate(marks):
+        current = pending.pop(k, current)
+        for a in actions(pm, "gimbalRotate"):
+            current = float(one(a, "wpml:actionActuatorFuncParam/wpml:gimbalPitchRotateAngle"))
+        out.append(current)
+        for group in pm.findall("wpml:actionGroup", NS):
+            for a in group.findall("wpml:action", NS):
+                if one(a, "wpml:actionActuatorFunc") == "gimbalEvenlyRotate":
+                    assert one(group, "wpml:actionTrigger/wpml:actionTriggerType") == "betweenAdjacentPoints"
+                    pending[int(one(group, "wpml:actionGroupEndIndex"))] = float(
+                        one(a, "wpml:actionActuatorFuncParam/wpml:gimbalPitchRotateAngle"))
+    return out
+
+
+@pytest.fixture(scope="module", params=["m3e", "m4e", "m350-p1"])
 def mission(request, tmp_path_factory):
     drone = get_drone(request.param)
     scene = load_scene(MESHES / "gabled_house.obj", crs="EPSG:25832")
@@ -165,8 +183,8 @@ def test_wpml_round_trips_positions_headings_and_pitches(mission):
     suffixes = [one(a, "wpml:actionActuatorFuncParam/wpml:fileSuffix") for k in shots
                 for a in actions(marks[k], "takePhoto")]
     assert len(set(suffixes)) == len(shots)
-    pitch = [float(one(actions(marks[k], "gimbalRotate")[0], "wpml:actionActuatorFuncParam/wpml:gimbalPitchRotateAngle"))
-             for k in shots]
+    held = held_pitch(marks)
+    pitch = [held[k] for k in shots]
     np.testing.assert_allclose(pitch, route.pitch_deg[route.shot], atol=0.01)
     # True heading, measured independently: the azimuth from each photo position to a point
     # 10 m ahead along its heading in the local grid.
@@ -178,7 +196,8 @@ def test_wpml_round_trips_positions_headings_and_pitches(mission):
     lon1, lat1, _ = to_lonlat(route.frame, ahead)
     azimuth = np.asarray(Geod(ellps="WGS84").inv(lon0, lat0, lon1, lat1)[0])
     yaw = np.array([float(one(actions(marks[k], "rotateYaw")[0], "wpml:actionActuatorFuncParam/wpml:aircraftHeading"))
-                    for k in shots])
+                    if actions(marks[k], "rotateYaw")  # at a stop; flown through, smoothTransition reaches it
+                    else float(one(marks[k], "wpml:waypointHeadingParam/wpml:waypointHeadingAngle")) for k in shots])
     assert np.abs((yaw - azimuth + 180) % 360 - 180).max() <= 0.02
     assert np.all((yaw >= -180) & (yaw <= 180))
 

@@ -121,6 +121,9 @@ PRESETS: dict[str, Camera] = {
     # DJI Mavic 3 Enterprise wide camera: 4/3 CMOS 17.3 x 13.0 mm, 24 mm equivalent
     # (12.29 mm on this sensor), 5280 x 3956 px (DJI Mavic 3E specifications).
     "mavic3e": Camera(17.3, 13.0, 12.29, 5280, 3956, "mavic3e"),
+    # DJI Matrice 4E wide-angle camera: 4/3 CMOS 17.3 x 13.0 mm, 24 mm equiv. (12.29 mm),
+    # 5280 x 3956 px, mechanical shutter (DJI Matrice 4E specifications).
+    "matrice4e": Camera(17.3, 13.0, 12.29, 5280, 3956, "matrice4e"),
     # DJI Zenmuse P1 with the DL 35 mm lens: full frame 35.9 x 24.0 mm, 8192 x 5460 px
     # (DJI Zenmuse P1 specifications).
     "zenmuse-p1-35": Camera(35.9, 24.0, 35.0, 8192, 5460, "zenmuse-p1-35"),

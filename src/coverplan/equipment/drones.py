@@ -117,6 +117,20 @@ DRONES: dict[str, DroneProfile] = {
         # option): DJI Mavic 3 Enterprise specifications.
         position=PositionAccuracy(0.5, 0.5, "gnss"),
         sources=("DJI Mavic 3 Enterprise specifications", "DJI WPML common elements")),
+    "m4e": DroneProfile(
+        name="m4e", label="DJI Matrice 4E", camera=PRESETS["matrice4e"],
+        # Wide camera gimbal tilt -90 to +35 deg, max horizontal speed 21 m/s, ascent 10 m/s,
+        # descent 8 m/s, max flight time 49 min, mechanical shutter, shortest photo interval
+        # 0.5 s: DJI Matrice 4E specifications, as published at launch (January 2025).
+        gimbal_pitch_deg=(-90.0, 35.0), max_speed=21.0, ascent_speed=10.0, descent_speed=8.0,
+        rated_flight_min=49.0, photo_interval_s=0.5, apps=("wpml",),
+        # droneEnumValue 99 / sub 0 (M4E), payloadEnumValue 88 (M4E camera): DJI Cloud API
+        # product support.
+        wpml=(99, 0, 88), image_format="visible",
+        # Hovering accuracy +-0.5 m horizontal (high-precision positioning) and +-0.5 m
+        # vertical with GNSS, +-0.1 m with RTK (an option): DJI Matrice 4E specifications.
+        position=PositionAccuracy(0.5, 0.5, "gnss"),
+        sources=("DJI Matrice 4E specifications", "DJI Cloud API product support")),
     "m350-p1": DroneProfile(
         name="m350-p1", label="DJI Matrice 350 RTK with Zenmuse P1 (35 mm)", camera=PRESETS["zenmuse-p1-35"],
         # M350 RTK: max horizontal speed 23 m/s, ascent 6 m/s, descent 5 m/s, max flight time
