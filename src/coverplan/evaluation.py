@@ -134,9 +134,9 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
     if classes:
         samples = samples.of_classes(classes)
     shots = route.shots
-    photo_pos = route.flown_positions()[shots]  # where the drone really is at each photo
+    photo_pos, photo_heading, photo_pitch = photo_poses(route)
     reach_range = route.d_opt if rule == "strict" else 4.0 * scene.extent + route.d_opt
-    pairs = imaging_pairs(photo_pos, route.heading_deg[shots], route.pitch_deg[shots],
+    pairs = imaging_pairs(photo_pos, photo_heading, photo_pitch,
                           route.camera, samples.points, samples.normals, scene.rays,
                           max_range=reach_range, max_incidence_deg=limits.max_incidence_deg,
                           offset=scene.epsilon * 4, progress=progress)
@@ -166,6 +166,7 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
     last = len(seg_d) - 1
     near = np.minimum(seg_d[np.clip(shots - 1, 0, last)], seg_d[np.clip(shots, 0, last)])
     shot_safe = (near >= route.security) & ~inside[shots] & limits.above_floor(positions[shots])
+    shot_safe = np.concatenate([shot_safe, np.zeros(len(photo_pos) - len(shots), dtype=bool)])  # taken, not flown
     witness = shot_safe[cam] & (rng <= route.d_opt) & (rule == "strict")
     # Probing is the slow part: only samples no safe shot images need it.
     reach = reachability(scene, samples, limits, known=np.bincount(pt[witness], minlength=n) > 0)
@@ -175,6 +176,20 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
     ev.metrics["rule"] = rule
     ev.metrics["shot_graph"] = shot_graph(route, samples, pairs)
     return ev
+
+
+def photo_poses(route: Route) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Positions (k, 3), headings and pitches (k,) of every photo the route's coverage counts:
+    its own, where the drone takes them (flown through, off the planned point), then the photos
+    already taken that it was planned around (``params.existing_photos``)."""
+    rows = route.shots
+    pos, heading, pitch = route.flown_positions()[rows], route.heading_deg[rows], route.pitch_deg[rows]
+    taken = route.params.get("existing_photos") or {}
+    if taken.get("positions"):
+        pos = np.vstack([pos, np.asarray(taken["positions"], dtype=float).reshape(-1, 3)])
+        heading = np.concatenate([heading, np.asarray(taken["heading_deg"], dtype=float)])
+        pitch = np.concatenate([pitch, np.asarray(taken["pitch_deg"], dtype=float)])
+    return pos, heading, pitch
 
 
 def match_rule(route: Route) -> MatchRule:
@@ -190,10 +205,10 @@ def shot_graph(route: Route, samples: SurfaceSamples, pairs) -> dict:
     import scipy.sparse as sp
 
     cam, pt, _ = pairs
-    n = len(route.shots)
+    n = len(photo_poses(route)[0])
     vis = sp.csr_matrix((np.ones(len(cam)), (cam, pt)), shape=(n, len(samples)))
     rule = match_rule(route)
-    summary = graph_summary(shot_links(vis, route.flown_positions()[route.shots], samples.points, rule), rule)
+    summary = graph_summary(shot_links(vis, photo_poses(route)[0], samples.points, rule), rule)
     summary.update({"max_pair_deg": rule.max_pair_deg, "min_overlap": rule.min_overlap,
                     "min_neighbours": rule.min_neighbours})
     return summary
@@ -254,7 +269,7 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
     reachable_area = float(area[reach].sum())
     covered_area = float(area[ev.covered & reach].sum())
     shots = route.shots
-    shot_pos = route.flown_positions()[shots]
+    shot_pos = photo_poses(route)[0]
     total_area = samples.total_area
     security = route.security
     tol = 1e-6 * max(1.0, security)

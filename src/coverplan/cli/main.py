@@ -15,6 +15,7 @@ from coverplan.equipment.flighttime import FlightModel
 from coverplan.errors import CoverplanError, ParameterError
 from coverplan.evaluation import evaluate
 from coverplan.flight.missions import mission_to_route
+from coverplan.sfm.existing import read_existing
 from coverplan.flight.route import Route
 from coverplan.geometry.geo import check_crs
 from coverplan.io import GEOGRAPHIC_FORMATS, export_route, parse_formats, read_mission
@@ -230,8 +231,12 @@ def cmd_plan(args) -> int:
             raise ParameterError(f"{shortfall} (--strict)")
     # --start is in the input models' coordinates, like the meshes: move it with them.
     start = None if args.start is None else scene.to_local(args.start)
+    options = _plan_options(args)
+    if args.existing:
+        with progress.stage("existing photos"):
+            options["existing"] = read_existing(args.existing, scene, camera, args.gsd, args.security, progress)
     job = run_job(scene, camera, out, formats=formats, export_options=_export_options(args), evaluated=args.evaluate,
-                  report=args.report, plot=args.plot, start=start, progress=progress, **_plan_options(args))
+                  report=args.report, plot=args.plot, start=start, progress=progress, **options)
     route, ev, written = job.route, job.evaluation, job.written
     if job.exports_withheld:
         print("coverplan: the evaluator found the route unsafe; no mission was exported", file=sys.stderr)
@@ -577,6 +582,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--start", nargs=3, type=float, default=None, metavar=("X", "Y", "Z"),
                    help="start and end point, in the input models' coordinates (default: just outside "
                         "the shot region, north-west)")
+    p.add_argument("--existing", default=None, metavar="PHOTOS_DIR|MISSION",
+                   help="photos already taken (a folder of photos with GPS tags, a route .json, or a mission: "
+                        "QGC .plan, .waypoints, Litchi .csv, DJI .kmz): their views count and the new flight takes "
+                        "only what they do not give")
     p.add_argument("--no-evaluate", dest="evaluate", action="store_false",
                    help="skip the independent evaluation of the planned route")
     p.add_argument("-o", "--output", required=True, metavar="ROUTE.json")

@@ -8,6 +8,9 @@ def plan_summary(route) -> str:
     rows = [
         ("shots", f"{m['shots']}" + (f"  (LP lower bound {m['lp_lower_bound_shots']:.1f})"
                                       if m.get("lp_lower_bound_shots") else "")),
+        *([("existing photos", f"{m['existing']['photos']} ({route.params['existing_photos']['source']}) count "
+                               f"toward the rules; alone they cover {m['existing']['coverage_pct']:.1f} % of the "
+                               f"reachable surface; this flight adds {m['shots']} shots")] if m.get("existing") else []),
         ("path length", f"{route.path_length:,.1f} m  (one orbit at the standoff: {m['orbit_length_m']:,.1f} m)"),
         *_flight_rows(route),
         ("coverage (planned)", f"{m['planned_coverage_pct']:.2f} % of the reachable surface"

@@ -11,6 +11,7 @@ from coverplan.equipment.camera import Camera, check_positive
 from coverplan.equipment.margin import MARGINS
 from coverplan.errors import ParameterError, PlanningError
 from coverplan.flight.passing import PassRules
+from coverplan.shots.existing import ExistingShots
 from coverplan.shots.reconstructability import MatchRule
 from coverplan.world.zones import Zones
 
@@ -81,6 +82,9 @@ class PlanSettings:
         stops at every waypoint. The shots are the same either way.
     pass_rules : PassRules
         Blur, photo offset, turn and speed limits of flying through.
+    existing : ExistingShots or None
+        Photos already taken (shots/existing.py): their views count toward every rule and the
+        new flight takes only what they do not give.
     """
 
     gsd: float
@@ -105,6 +109,7 @@ class PlanSettings:
     zone_margin: float | None = None
     fly: str = "through"
     pass_rules: PassRules = field(default_factory=PassRules)
+    existing: ExistingShots | None = None
 
     def __post_init__(self):
         def put(name, value):

@@ -177,6 +177,7 @@ class Problem:
     fine_job: Future
     links_job: Future | None
     lattice_job: Future | None
+    fixed: np.ndarray  # (k,) candidate indices of photos already taken (settings.existing)
 
 
 def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Problem:
@@ -209,6 +210,11 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
                                setup.max_pair_deg) & reach.reachable
         cover.add_candidates(keep_safe(scene, from_probes(scene, samples, np.flatnonzero(needy), limits),
                                        limits, setup.extra_clearance))
+        fixed = np.zeros(0, dtype=np.int64)
+        if settings.existing is not None:  # taken, not flown: no safety or gimbal test
+            base = len(cover.cands)
+            cover.add_candidates(settings.existing.candidates())
+            fixed = np.arange(base, len(cover.cands))
     vis, rays = cover.matrices()
     reach = reach.with_witnesses(np.bincount(cover.pairs[1], minlength=len(samples)) > 0)
     # The candidates' link graph depends on vis alone: built on the other core while HiGHS
@@ -222,7 +228,7 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
     if h == _lattice_spacing(scene, np.zeros((0, 3)), setup):
         lattice_job = pool.submit(build_lattice, scene, limits, lattice_box(scene, limits, np.zeros((0, 3)), h),
                                   setup.start, margin=setup.extra_clearance, spacing=h)
-    return Problem(samples, reach, cover, vis, rays, fine_job, links_job, lattice_job)
+    return Problem(samples, reach, cover, vis, rays, fine_job, links_job, lattice_job, fixed)
 
 
 @dataclass(frozen=True)
@@ -240,7 +246,8 @@ def select_shots(problem: Problem, setup: Setup, progress: Progress) -> Selectio
     settings, match = setup.asked, setup.match
     with progress.stage("view selection", unit="shot") as update:
         selection = select_views(problem.vis, problem.rays, settings.min_views, setup.min_triangulation_deg,
-                                 lp_time_limit=settings.lp_time_limit, progress=update, max_pair_deg=setup.max_pair_deg)
+                                 lp_time_limit=settings.lp_time_limit, progress=update, max_pair_deg=setup.max_pair_deg,
+                                 preset=problem.fixed if len(problem.fixed) else None)
     chosen = selection.chosen
     covering = len(chosen)
     samples, cands = problem.samples, problem.cover.cands
@@ -315,7 +322,7 @@ def close_gaps(problem: Problem, selection: Selection, setup: Setup, progress: P
                 check = closer.check(chosen)
         complete = len(chosen)
         if match is not None:
-            chosen = _drop_redundant(cover, closer, chosen, check.covered, coarse, vis, match)
+            chosen = _drop_redundant(cover, closer, chosen, check.covered, coarse, vis, match, keep=problem.fixed)
             check = closer.kept(check, chosen)
         dropped = complete - len(chosen)
         check_links = 0
@@ -350,7 +357,12 @@ def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progr
     limits, settings, extra = setup.limits, setup.asked, setup.extra_clearance
     closer, chosen, check = gaps.closer, gaps.chosen, gaps.check
     cands = gaps.cover.cands
-    shots = cands.subset(chosen)
+    taken = np.isin(chosen, problem.fixed)
+    new, taken = chosen[~taken], chosen[taken]
+    if not len(new):
+        raise PlanningError(f"the {len(taken)} existing photos already give every view the rules ask; "
+                            "there is nothing to fly")
+    shots = cands.subset(new)
     with progress.stage("lattice and Dijkstra"):
         specials = np.vstack([setup.start, shots.positions])
         h = _lattice_spacing(scene, shots.positions, setup)
@@ -365,9 +377,10 @@ def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progr
     if not flyable.all():
         # Shots the start cannot reach (a pocket no safe path enters): drop them, and say what
         # their samples lose.
-        chosen = chosen[flyable[1:]]
+        new = new[flyable[1:]]
+        chosen = np.concatenate([taken, new])
         check = closer.check(chosen)
-        shots = cands.subset(chosen)
+        shots = cands.subset(new)
         specials = np.vstack([setup.start, shots.positions])
         fg = build_flight_graph(scene, limits, specials, margin=extra, spacing=h, cost_weight=settings.cost_weight,
                                 lattice=lattice)
@@ -466,6 +479,16 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
     }
     if through is not None:
         route.metrics["fly_through"] = through
+    if settings.existing is not None:
+        ex = settings.existing
+        params["existing_photos"] = {"count": len(ex), "source": ex.source,
+                                     "positions": np.round(ex.positions, 4).tolist(),
+                                     "heading_deg": np.round(ex.heading_deg, 4).tolist(),
+                                     "pitch_deg": np.round(ex.pitch_deg, 4).tolist()}
+        used = np.intersect1d(chosen, problem.fixed)
+        route.metrics["existing"] = {"photos": len(settings.existing), "kept": int(len(used)),
+                                     "coverage_pct": gaps.closer.check(used).coverage_pct,
+                                     "new_shots": int(route.shot.sum())}
     if selection.lp_bound is not None:
         route.metrics["lp_lower_bound_shots"] = selection.lp_bound
     route.extra = {"notes": notes + list(scene.notes), "target_outline": _outline(scene)}
@@ -499,7 +522,7 @@ def _link_new_shots(vis, positions, points, chosen, before: int, match: MatchRul
 
 
 def _drop_redundant(cover: CoverProblem, closer: GapCloser, chosen: np.ndarray, covered: np.ndarray,
-                    coarse: int, vis, match: MatchRule) -> np.ndarray:
+                    coarse: int, vis, match: MatchRule, keep=None) -> np.ndarray:
     """``drop_redundant`` keeping the fine check's coverage, the links between the shots and the
     sharp views: on the planner's samples as the sharp-view stage asked them, on the check
     samples a view as square as 35 deg or as the plan's best (docs/reconstruction.md)."""
@@ -520,7 +543,7 @@ def _drop_redundant(cover: CoverProblem, closer: GapCloser, chosen: np.ndarray, 
         best = np.maximum(best_incidence(at, inc, len(fine)), SHARP_INCIDENCE_DEG)
         sharp.append(SharpViews(sharp_view_matrix(who, at, inc, n_cands, len(fine), targets=best), match.sharp_views))
     links = shot_links(vis[chosen][:, :coarse], positions[chosen], cover.samples.points[:coarse], match)
-    return drop_redundant(chosen, views, sharp, links, match.min_neighbours)
+    return drop_redundant(chosen, views, sharp, links, match.min_neighbours, keep=keep)
 
 
 def _short_samples(pairs, positions, samples, min_views, min_triangulation_deg, max_pair_deg=None) -> np.ndarray:

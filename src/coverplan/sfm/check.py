@@ -95,6 +95,44 @@ def photo_camera(tags: list[PhotoTags], folder: Path) -> tuple[PhotoCamera, Came
     return PhotoCamera(width, height, fx, fx), camera
 
 
+def photos_route(folder, scene, gsd: float, security: float, progress: Progress | None = None, least: int = 1):
+    """The photos of ``folder`` as a route of one photo per waypoint, in the scene's frame,
+    from their metadata (positions through the scene's georeference).
+
+    Returns
+    -------
+    route : Route
+    tags : list of PhotoTags
+        The photos used, in name order.
+    left_out : list of (name, why)
+        Photos without a position.
+    photo : PhotoCamera
+        The camera as SfM takes it.
+    """
+    progress = progress or Progress()
+    folder = Path(folder)
+    files = photo_files(folder)
+    if not geo.has_georeference(scene.frame):
+        raise ParameterError("the photos give latitude/longitude, but the scene has no georeference: pass --crs "
+                             "EPSG:XXXX or --geo-origin LAT LON H (as for planning)")
+    with progress.stage("reading the photos' metadata", total=len(files), unit="img") as tick:
+        tags = []
+        for f in files:
+            tags.append(read_photo(f))
+            tick(1)
+    left_out = [(t.name, "no GPS position in its metadata") for t in tags if not t.has_position]
+    tags = [t for t in tags if t.has_position]
+    if len(tags) < least:
+        raise InputFileError(folder, f"has {len(tags)} photo(s) with a GPS position; "
+                                     + ("SfM needs at least 2" if least >= 2 else "at least one is needed"))
+    photo, camera = photo_camera(tags, folder)
+    frame = scene.frame
+    absolute = bool(frame.get("vertical_crs") or frame.get("geodetic_origin"))
+    route = mission_to_route(photos_as_mission(tags, absolute, "photos"), scene, camera, gsd, security)
+    route.extra["source"] = f"{len(tags)} photos in {folder}"
+    return route, tags, left_out, photo
+
+
 def fit_to_scene(points: np.ndarray, surfaces: trimesh.Trimesh, rounds: int = ICP_ROUNDS,
                  sample: int = ICP_SAMPLE, seed: int = 0) -> np.ndarray:
     """A rigid transform (4, 4) moving ``points`` (n, 3) onto ``surfaces``: ICP on a sample,
@@ -144,23 +182,7 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
     require_pycolmap()
     progress = progress or Progress()
     folder = Path(photos_dir)
-    files = photo_files(folder)
-    if not geo.has_georeference(scene.frame):
-        raise ParameterError("the photos give latitude/longitude, but the scene has no georeference: pass --crs "
-                             "EPSG:XXXX or --geo-origin LAT LON H (as for planning)")
-    with progress.stage("reading the photos' metadata", total=len(files), unit="img") as tick:
-        tags = []
-        for f in files:
-            tags.append(read_photo(f))
-            tick(1)
-    left_out = [(t.name, "no GPS position in its metadata") for t in tags if not t.has_position]
-    tags = [t for t in tags if t.has_position]
-    if len(tags) < 2:
-        raise InputFileError(folder, f"has {len(tags)} photo(s) with a GPS position; SfM needs at least 2")
-    photo, camera = photo_camera(tags, folder)
-    frame = scene.frame
-    absolute = bool(frame.get("vertical_crs") or frame.get("geodetic_origin"))
-    route = mission_to_route(photos_as_mission(tags, absolute, "photos"), scene, camera, gsd, security)
+    route, tags, left_out, photo = photos_route(folder, scene, gsd, security, progress, least=2)
     names = [t.name for t in tags]
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)

@@ -40,7 +40,7 @@ class Candidates:
     positions: np.ndarray
     heading_deg: np.ndarray
     pitch_deg: np.ndarray
-    source: np.ndarray  # 0 facade ring, 1 along normal, 2 probe
+    source: np.ndarray  # 0 facade ring, 1 along normal, 2 probe, EXISTING a photo already taken
 
     def __len__(self) -> int:
         return len(self.positions)

@@ -48,13 +48,15 @@ class CheckViews:
 
 
 def drop_redundant(chosen: np.ndarray, views: CheckViews, sharp: list[SharpViews] = (),
-                   links: np.ndarray | None = None, min_neighbours: int = 0) -> np.ndarray:
+                   links: np.ndarray | None = None, min_neighbours: int = 0, keep=None) -> np.ndarray:
     """The shots of ``chosen`` (candidate indices, in the order picked) left once every shot
     the others make redundant is dropped, latest first. ``links``: (len(chosen),) * 2
-    booleans, which chosen shots SfM will match (``shot_links``)."""
+    booleans, which chosen shots SfM will match (``shot_links``). ``keep``: candidate indices
+    never dropped (photos already taken)."""
     chosen = np.asarray(chosen, dtype=np.int64)
     n = len(chosen)
     alive = np.ones(n, dtype=bool)
+    kept = np.isin(chosen, keep) if keep is not None else np.zeros(n, dtype=bool)
 
     order = np.argsort(chosen)
     mine = np.isin(views.who, chosen)
@@ -76,6 +78,8 @@ def drop_redundant(chosen: np.ndarray, views: CheckViews, sharp: list[SharpViews
     neighbours = [np.flatnonzero(r).tolist() for r in links]
 
     for k in range(n - 1, -1, -1):
+        if kept[k]:
+            continue
         # Sharp views and links first: the cheapest tests.
         if any((h[_row(m, k)] - 1 < d[_row(m, k)]).any() for h, d, m in zip(have, need, sharp_rows)):
             continue

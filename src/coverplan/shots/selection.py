@@ -116,7 +116,10 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_trian
         take(j)
         taken[j] = True
         chosen.append(j)
-    for j in np.flatnonzero((x >= _SEED) & ~taken)[np.argsort(-x[x >= _SEED], kind="stable")]:
+    # The LP's picks, strongest first; it knows nothing of a preset, so after one its picks only
+    # weigh the greedy gains.
+    seeds = np.flatnonzero((x >= _SEED) & ~taken) if preset is None else np.zeros(0, dtype=np.int64)
+    for j in seeds[np.argsort(-x[seeds], kind="stable")]:
         take(j)
         taken[j] = True
         chosen.append(int(j))
