@@ -220,6 +220,24 @@ def test_structure_scan_is_flown_as_qgroundcontrol_computes_it(house, tmp_path, 
     assert m["coverage_by_class_pct"]["facade"] > m["coverage_by_class_pct"].get("roof", 0.0)
 
 
+def test_plan_adds_to_a_structure_scan_what_it_misses(house, tmp_path, capsys):
+    """The scan flies level layers round the walls: ``plan --existing`` on its .plan adds the
+    roof, and the scan's photos with the new ones cover the house in one photo set."""
+    scan = _structure_scan_plan(tmp_path / "scan.plan")
+    alone = metrics(capsys, ["evaluate", str(scan), "--target", str(house), "--crs", CRS, "--camera", "phantom4pro",
+                             "--gsd", str(GSD), "--security", str(SECURITY)])
+    out = tmp_path / "more.json"
+    assert main(["plan", str(house), "--crs", CRS, "--camera", "phantom4pro", "--gsd", str(GSD), "--security",
+                 str(SECURITY), "--existing", str(scan), "-o", str(out), "-q", "--no-evaluate"]) == 0
+    more = Route.load(out)
+    assert more.params["existing_photos"]["count"] == alone["shots"]
+    assert (more.pitch_deg[more.shot] <= -45.0).any()  # looking down at the roof
+    both = metrics(capsys, ["evaluate", str(out), "--target", str(house), "--crs", CRS])
+    assert alone["coverage_by_class_pct"].get("roof", 0.0) < 50.0
+    assert both["coverage_by_class_pct"]["roof"] >= 99.0 and both["coverage_pct"] >= 99.0
+    assert both["shot_graph"]["components"] == 1 and both["safe"]
+
+
 def test_amsl_mission_needs_a_height_datum(house, tmp_path, capsys):
     path = _hand_plan(tmp_path / "amsl.plan", [(EAST - 5, NORTH - 7, BASE + 8.0, 0.0, True)], frame=0)
     code = main(["evaluate", str(path), "--target", str(house), "--crs", CRS, "--camera", "phantom4pro",

@@ -15,7 +15,6 @@ from coverplan.equipment.flighttime import FlightModel
 from coverplan.errors import CoverplanError, ParameterError
 from coverplan.evaluation import evaluate
 from coverplan.flight.missions import mission_to_route
-from coverplan.sfm.existing import read_existing
 from coverplan.flight.route import Route
 from coverplan.geometry.geo import check_crs
 from coverplan.io import GEOGRAPHIC_FORMATS, export_route, parse_formats, read_mission
@@ -25,6 +24,7 @@ from coverplan.job import run_job, write_pictures
 from coverplan.planning.settings import DEFAULT_CEILING_M
 from coverplan.progress import Progress
 from coverplan.sfm.check import check as check_photos
+from coverplan.sfm.existing import read_existing
 from coverplan.sfm.simulate import Simulation, simulate
 from coverplan.shots.reconstructability import MatchRule
 from coverplan.world.merge import merge_into_target

@@ -34,7 +34,8 @@ def plan_summary(route) -> str:
     if ev:
         at = next(k for k, r in enumerate(rows) if r[0] == "uncovered samples")
         rows.insert(at, ("coverage (evaluated)", f"{ev['coverage_pct']:.2f} % on fresh samples every "
-                                                 f"{ev['sample_spacing_m']:.2f} m, p-outliers {ev['p_outliers']}"))
+                                                 f"{ev['sample_spacing_m']:.2f} m, p-outliers {ev['p_outliers']}"
+                                                 + (", with the existing photos" if m.get("existing") else "")))
         rows.insert(at + 1, ("min clearance", f"{ev['min_clearance_m']:.2f} m (security {route.security:g} m)"
                                               + ("" if ev["safe"] else "  UNSAFE")))
     reasons: dict[str, float] = {}

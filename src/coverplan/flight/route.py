@@ -139,6 +139,29 @@ class Route:
                      pass_speed=None if self.pass_speed is None else self.pass_speed[rows],
                      turn_damping=None if self.turn_damping is None else self.turn_damping[rows])
 
+    def with_existing_photos(self) -> "Route":
+        """This route with the photos it was planned around (``params.existing_photos``) as a
+        battery flight of their own after its flights: what SfM gets when the old and the new
+        photos are reconstructed together. The route itself when it has none."""
+        taken = self.params.get("existing_photos") or {}
+        if not taken.get("positions"):
+            return self
+        p = np.asarray(taken["positions"], dtype=float).reshape(-1, 3)
+        k, n = len(p), len(self)
+        params = {key: v for key, v in self.params.items() if key != "existing_photos"}
+        zeros = np.zeros(k)
+        return Route(np.vstack([self.positions, p]), np.concatenate([self.shot, np.ones(k, dtype=bool)]),
+                     np.concatenate([self.heading_deg, np.asarray(taken["heading_deg"], dtype=float)]),
+                     np.concatenate([self.pitch_deg, np.asarray(taken["pitch_deg"], dtype=float)]),
+                     self.leg + ["coverage"] * k, self.camera, params, frame=self.frame, uncovered=self.uncovered,
+                     metrics={}, extra=dict(self.extra),
+                     flight=np.concatenate([self.flight, np.full(k, self.n_flights + 1)]),
+                     ground_z=None if self.ground_z is None else np.concatenate([self.ground_z,
+                                                                                 np.full(k, self.ground_z[0])]),
+                     pass_speed=None if self.pass_speed is None else np.concatenate([self.pass_speed, zeros]),
+                     turn_damping=None if self.turn_damping is None else np.concatenate([self.turn_damping, zeros])
+                     ) if n else self
+
     def flight_minutes(self, speed: float, shot_seconds: float) -> float:
         """The simple estimate: the path at ``speed`` m/s plus ``shot_seconds`` per photo."""
         return (self.path_length / speed + int(self.shot.sum()) * shot_seconds) / 60.0
@@ -177,7 +200,8 @@ class Route:
             })
         d = {
             "format": FORMAT, "version": VERSION, "units": "m",
-            "frame": {"crs": self.frame.get("crs"), "origin": [float(v) for v in self.frame.get("origin", [0, 0, 0])]},
+            "frame": {"crs": self.frame.get("crs"), "origin": [float(v) for v in self.frame.get("origin", [0, 0, 0])],
+                      **_jsonable({k: v for k, v in self.frame.items() if k not in ("crs", "origin")})},
             "camera": self.camera.to_dict(),
             "params": _jsonable(self.params),
             "waypoints": waypoints,

@@ -219,6 +219,7 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
     Parameters
     ----------
     route : Route
+        Its photos, and those it was planned around (``params.existing_photos``) after them.
     scene : Scene
         The true scene: the photos are rendered on it and the reconstruction judged against it.
     out_dir : path
@@ -249,6 +250,7 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
     draws = 1 if cond.name == "ideal" else int(draws)
     if draws < 1:
         raise ParameterError(f"draws must be at least 1, got {draws}")
+    route = route.with_existing_photos()  # planned around photos already taken: SfM gets old and new
     if len(route.shots) < 2:
         raise ParameterError(f"the route has {len(route.shots)} photo(s); SfM needs at least 2")
     progress = progress or Progress()
