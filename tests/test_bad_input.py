@@ -117,6 +117,18 @@ ROWS = {
     "check: photos without a georeferenced scene": (lambda t: ["check", _folder(t, photos=1), "--target", L,
                                                                "-o", t / "out"],
                                                     ["the scene has no georeference", "--geo-origin"]),
+    "check: photos without GPS": (lambda t: ["check", _folder(t, photos=3, gps=False), "--target", L, *GEO,
+                                             "-o", t / "out"],
+                                  ["photos", "0 photo(s) with a GPS position", "at least 2"]),
+    "check: a camera the EXIF does not name": (lambda t: ["check", _folder(t, photos=3, focal=False), "--target", L,
+                                                          *GEO, "-o", t / "out"],
+                                               ["photos", "give no focal length", "FocalLengthIn35mmFilm"]),
+    "mission with a complex item not expanded": (lambda t: ["evaluate", _plan_with_complex(t, "FWLanding"), "--target",
+                                                            L, *GEO, "--camera", "phantom4pro", "--gsd", "0.004",
+                                                            "--security", "3"],
+                                                 ["mission item 2 is a FWLanding item", "does not expand"]),
+    "existing photos that do not exist": (lambda t: ["plan", L, *PLAN, "--existing", t / "flown", "-o", t / "r.json"],
+                                          ["flown", "no such file or folder"]),
     "zone floor above its ceiling": (lambda t: ["plan", L, *GEO, *PLAN, "--keep-out", _zone_file(
         t, _square(13.41, 52.5), floor=30, ceiling=10), "-o", t / "r.json"],
         ["zone 0: floor 30 m is not below its ceiling 10 m"]),
@@ -219,17 +231,29 @@ def _square(lon: float, lat: float, half: float = 0.0002) -> dict:
     return {"type": "Polygon", "coordinates": [ring + ring[:1]]}
 
 
-def _folder(tmp_path, photos: int = 0):
-    """A folder with ``photos`` tagged photos (a black pixel each)."""
+def _folder(tmp_path, photos: int = 0, gps: bool = True, focal: bool = True):
+    """A folder with ``photos`` tagged photos (a black pixel each), with or without their GPS
+    position and focal length."""
     import numpy as np
 
     from coverplan.sfm.photos import PhotoTags, write_photo
     folder = tmp_path / "photos"
     folder.mkdir()
+    nan = float("nan")
     for k in range(photos):
         write_photo(folder / f"p{k}.jpg", np.zeros((8, 8, 3), np.uint8),
-                    PhotoTags(f"p{k}.jpg", 8, 8, 52.5, 13.4, relative_altitude_m=10.0, focal_35mm=24.0))
+                    PhotoTags(f"p{k}.jpg", 8, 8, 52.5 if gps else nan, 13.4 if gps else nan,
+                              relative_altitude_m=10.0 if gps else nan, focal_35mm=24.0 if focal else nan))
     return folder
+
+
+def _plan_with_complex(tmp_path, kind: str):
+    items = [{"type": "SimpleItem", "command": 22, "frame": 3, "params": [0, 0, 0, None, 52.5, 13.4, 10.0]},
+             {"type": "ComplexItem", "complexItemType": kind}]
+    return file_with(tmp_path, "mission.plan", json.dumps({
+        "fileType": "Plan", "version": 1, "groundStation": "QGroundControl",
+        "mission": {"version": 2, "firmwareType": 12, "vehicleType": 2, "plannedHomePosition": [52.5, 13.4, 30],
+                    "items": items}}))
 
 
 def _zone_file(tmp_path, geometry: dict, **properties):

@@ -146,7 +146,9 @@ def test_hand_written_plan_too_close_is_unsafe(house, tmp_path):
     (lambda d: d["mission"]["items"].append({"type": "ComplexItem", "complexItemType": "StructureScan"}),
      "(Structure Scan) has no polygon"),
     (lambda d: d["mission"]["items"].append({"type": "ComplexItem", "complexItemType": "survey"}),
-     "is a survey item, which coverplan does not expand yet"),
+     "holds no generated mission items"),
+    (lambda d: d["mission"]["items"].append({"type": "ComplexItem", "complexItemType": "FWLanding"}),
+     "is a FWLanding item, which coverplan does not expand yet"),
     (lambda d: d["mission"]["items"][1].update(frame=10), "above terrain"),
     (lambda d: d["mission"]["items"][1]["params"].__setitem__(4, 123.0), "not on Earth"),
     (lambda d: d.update(fileType="Other"), "not a QGroundControl plan"),
@@ -236,6 +238,56 @@ def test_plan_adds_to_a_structure_scan_what_it_misses(house, tmp_path, capsys):
     assert alone["coverage_by_class_pct"].get("roof", 0.0) < 50.0
     assert both["coverage_by_class_pct"]["roof"] >= 99.0 and both["coverage_pct"] >= 99.0
     assert both["shot_graph"]["components"] == 1 and both["safe"]
+
+
+SURVEY_ALT, TRIGGER = 25.0, 4.0
+
+
+def _survey_plan(path):
+    """A QGroundControl Survey over the house as QGroundControl saves it: its settings and the
+    mission items it generated (TransectStyleComplexItem.Items), here two transects running
+    north over the roof 6 m apart with the camera triggered every 4 m between them."""
+    def wp(x, y):
+        lon, lat = _utm_to_lonlat(x, y)
+        return {"type": "SimpleItem", "command": 16, "frame": 3, "autoContinue": True,
+                "params": [0, 0, 0, None, lat, lon, SURVEY_ALT]}
+
+    def trigger(distance):
+        return {"type": "SimpleItem", "command": 206, "frame": 2, "autoContinue": True,
+                "params": [distance, 0, 1 if distance else 0, 0, 0, 0, 0]}
+    x0, x1 = EAST + 2, EAST + 8
+    generated = [wp(x0, NORTH - 6), trigger(TRIGGER), wp(x0, NORTH + 14), trigger(0),
+                 wp(x1, NORTH + 14), trigger(TRIGGER), wp(x1, NORTH - 6), trigger(0)]
+    polygon = [list(_utm_to_lonlat(x, y))[::-1] for x, y in
+               [(EAST, NORTH), (EAST + 10, NORTH), (EAST + 10, NORTH + 8), (EAST, NORTH + 8)]]
+    survey = {"type": "ComplexItem", "complexItemType": "survey", "version": 5, "angle": 0, "polygon": polygon,
+              "TransectStyleComplexItem": {"version": 2, "TurnAroundDistance": 6, "CameraTriggerInTurnAround": False,
+                                           "HoverAndCapture": False, "Refly90Degrees": False, "CameraShots": 12,
+                                           "CameraCalc": {"DistanceToSurface": SURVEY_ALT},
+                                           "VisualTransectPoints": [], "Items": generated}}
+    lon0, lat0 = _utm_to_lonlat(EAST - 20, NORTH - 20)
+    items = [{"type": "SimpleItem", "command": 22, "frame": 3, "params": [0, 0, 0, None, 0, 0, 10.0]}, survey,
+             {"type": "SimpleItem", "command": 20, "frame": 2, "params": [0] * 7}]
+    return _plan_file(path, items, lat0, lon0)
+
+
+def test_a_survey_is_flown_as_qgroundcontrol_saved_it(house, tmp_path, capsys):
+    """Photos every 4 m along each 20 m transect, the first where the trigger starts (0, 4, ...
+    20 m: 6 a transect), none on the turn; the camera straight down."""
+    scene = load_scene(house, crs=CRS)
+    route = mission_to_route(read_mission(_survey_plan(tmp_path / "survey.plan")), scene,
+                             get_camera("phantom4pro"), GSD, SECURITY)
+    shots = route.positions[route.shots]
+    assert len(shots) == 12
+    assert np.allclose(route.pitch_deg[route.shots], -90.0)
+    local = shots[:, :2] + np.asarray(scene.origin[:2])
+    for x in (EAST + 2, EAST + 8):
+        lane = np.sort(local[np.abs(local[:, 0] - x) < 0.05, 1])
+        assert len(lane) == 6 and np.allclose(np.diff(lane), TRIGGER, atol=0.05)
+    assert np.allclose(shots[:, 2] - BASE, SURVEY_ALT, atol=0.01)
+    m = metrics(capsys, ["evaluate", str(tmp_path / "survey.plan"), "--target", str(house), "--crs", CRS,
+                         "--camera", "phantom4pro", "--gsd", "0.01", "--security", str(SECURITY)])
+    assert m["shots"] == 12 and m["coverage_by_class_pct"]["roof"] > m["coverage_by_class_pct"]["facade"]
 
 
 def test_amsl_mission_needs_a_height_datum(house, tmp_path, capsys):

@@ -17,7 +17,15 @@ when it uploads the mission. The rules, as QGroundControl's Structure Scan item 
 
 The expansion yields MAVLink items (command, frame, params) that the plain-item reader walks,
 with a waypoint at every photo (where the distance trigger fires) so that each photo has its
-position and heading. Survey and other complex items are refused by name.
+position and heading.
+
+Surveys and corridor scans (QGroundControl's transect-style items) are saved with the mission
+items QGroundControl generated for them (``TransectStyleComplexItem.Items``), which it loads
+back as they are rather than computing them again: those items are the expansion. Their
+photos come from the camera's distance trigger (MAV_CMD_DO_SET_CAM_TRIGG_DIST), which the
+plain-item reader follows along the legs, or from hover-and-capture photos. A survey that
+sets no gimbal pitch is taken with the camera straight down, as QGroundControl's survey
+camera assumes. Other complex items are refused by name.
 """
 
 from __future__ import annotations
@@ -28,18 +36,43 @@ from coverplan.errors import InputFileError
 from coverplan.geometry import geo
 
 STRUCTURE_SCAN = "StructureScan"
+TRANSECT_STYLE = {"survey": "Survey", "CorridorScan": "Corridor Scan"}  # saved with their generated items
 _FRAME_MISSION, _FRAME_GLOBAL_RELATIVE_ALT = 2, 3
 _NAV_WAYPOINT, _DO_GIMBAL_MANAGER_PITCHYAW, _IMAGE_START_CAPTURE = 16, 1000, 2000
+_DO_MOUNT_CONTROL = 205
 NAN = float("nan")
 
 
 def expand_complex_item(item: dict, n: int, path) -> list[tuple[int, int, list[float]]]:
     """The MAVLink items QGroundControl flies for complex item ``n`` of a ``.plan``."""
     kind = item.get("complexItemType", "complex")
+    if kind in TRANSECT_STYLE:
+        return transect_items(item, n, path)
     if kind != STRUCTURE_SCAN:
         raise InputFileError(path, f"mission item {n} is a {kind} item, which coverplan does not expand yet "
-                                   "(Structure Scan items are); save it from QGroundControl as plain waypoints")
+                                   "(Structure Scan, Survey and Corridor Scan items are); save it from "
+                                   "QGroundControl as plain waypoints")
     return structure_scan_items(item, n, path)
+
+
+def transect_items(item: dict, n: int, path) -> list[tuple[int, int, list[float]]]:
+    """A Survey or Corridor Scan item as the mission items QGroundControl generated and saved
+    with it; the camera straight down unless they set a gimbal pitch."""
+    name = TRANSECT_STYLE[item["complexItemType"]]
+    inner = item.get("TransectStyleComplexItem")
+    saved = inner.get("Items") if isinstance(inner, dict) else None
+    if not isinstance(saved, list) or not saved:
+        raise InputFileError(path, f"mission item {n} ({name}) holds no generated mission items "
+                                   "(TransectStyleComplexItem.Items); open and save it again in QGroundControl")
+    out = []
+    for k, sub in enumerate(saved, start=1):
+        params = sub.get("params") if isinstance(sub, dict) else None
+        if not isinstance(params, list) or not isinstance(sub.get("command"), int):
+            raise InputFileError(path, f"mission item {n} ({name}), generated item {k} has no command and params")
+        out.append((sub["command"], int(sub.get("frame", _FRAME_GLOBAL_RELATIVE_ALT)), params))
+    if not any(c in (_DO_GIMBAL_MANAGER_PITCHYAW, _DO_MOUNT_CONTROL) for c, _f, _p in out):
+        out.insert(0, (_DO_GIMBAL_MANAGER_PITCHYAW, _FRAME_MISSION, [-90.0, 0.0, NAN, NAN, 0.0, 0.0, 0.0]))
+    return out
 
 
 def structure_scan_items(item: dict, n: int, path) -> list[tuple[int, int, list[float]]]:

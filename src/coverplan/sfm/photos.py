@@ -154,11 +154,15 @@ def write_photo(path, image: np.ndarray, tags: PhotoTags, quality: int = 95) -> 
 
     exif = Image.Exif()
     exif[0x010F], exif[0x0110] = "coverplan", "rendered"
-    gps = {1: "N" if tags.lat >= 0 else "S", 2: dms(tags.lat), 3: "E" if tags.lon >= 0 else "W", 4: dms(tags.lon)}
+    gps = {}  # a photo without a fix carries no GPS position, as a camera without one writes it
+    if np.isfinite(tags.lat) and np.isfinite(tags.lon):
+        gps = {1: "N" if tags.lat >= 0 else "S", 2: dms(tags.lat), 3: "E" if tags.lon >= 0 else "W",
+               4: dms(tags.lon)}
     if np.isfinite(tags.gps_altitude_m):
         gps[5] = b"\x00" if tags.gps_altitude_m >= 0 else b"\x01"
         gps[6] = IFDRational(int(round(abs(tags.gps_altitude_m) * 1000)), 1000)
-    exif[_GPS] = gps
+    if gps:
+        exif[_GPS] = gps
     sub = {}
     if np.isfinite(tags.focal_mm):
         sub[_FOCAL] = IFDRational(int(round(tags.focal_mm * 1000)), 1000)
