@@ -246,7 +246,7 @@ SURVEY_ALT, TRIGGER = 25.0, 4.0
 def _survey_plan(path):
     """A QGroundControl Survey over the house as QGroundControl saves it: its settings and the
     mission items it generated (TransectStyleComplexItem.Items), here two transects running
-    north over the roof 6 m apart with the camera triggered every 4 m between them."""
+    north over the roof 6 m apart with the camera triggered every 4 m along them."""
     def wp(x, y):
         lon, lat = _utm_to_lonlat(x, y)
         return {"type": "SimpleItem", "command": 16, "frame": 3, "autoContinue": True,
@@ -256,8 +256,8 @@ def _survey_plan(path):
         return {"type": "SimpleItem", "command": 206, "frame": 2, "autoContinue": True,
                 "params": [distance, 0, 1 if distance else 0, 0, 0, 0, 0]}
     x0, x1 = EAST + 2, EAST + 8
-    generated = [wp(x0, NORTH - 6), trigger(TRIGGER), wp(x0, NORTH + 14), trigger(0),
-                 wp(x1, NORTH + 14), trigger(TRIGGER), wp(x1, NORTH - 6), trigger(0)]
+    generated = [wp(x0, NORTH - 7), trigger(TRIGGER), wp(x0, NORTH + 15), trigger(0),
+                 wp(x1, NORTH + 15), trigger(TRIGGER), wp(x1, NORTH - 7), trigger(0)]
     polygon = [list(_utm_to_lonlat(x, y))[::-1] for x, y in
                [(EAST, NORTH), (EAST + 10, NORTH), (EAST + 10, NORTH + 8), (EAST, NORTH + 8)]]
     survey = {"type": "ComplexItem", "complexItemType": "survey", "version": 5, "angle": 0, "polygon": polygon,
@@ -272,7 +272,7 @@ def _survey_plan(path):
 
 
 def test_a_survey_is_flown_as_qgroundcontrol_saved_it(house, tmp_path, capsys):
-    """Photos every 4 m along each 20 m transect, the first where the trigger starts (0, 4, ...
+    """Photos every 4 m along each 22 m transect, the first where the trigger starts (0, 4, ...
     20 m: 6 a transect), none on the turn; the camera straight down."""
     scene = load_scene(house, crs=CRS)
     route = mission_to_route(read_mission(_survey_plan(tmp_path / "survey.plan")), scene,

@@ -220,3 +220,71 @@ def test_egm96_heights_need_the_geoid_grid_or_say_so(tmp_path):
     egm = np.array([float(one(pm, "wpml:height")) for pm in marks])
     ell = np.array([float(one(pm, "wpml:ellipsoidHeight")) for pm in marks])
     assert np.all(np.abs(ell - egm) < 110) and np.ptp(ell - egm) < 1.0
+
+
+def _oblique_kmz(path, lines, every: float, trigger: str = "multipleDistance", speed: float = 5.0):
+    """A DJI Pilot 2 mapping-style waylines.wpml: one Folder per wayline (a mapping3d mission
+    has five), each a straight line with its gimbal pitch set on reaching the first point and
+    an equal-distance (or equal-time) takePhoto from its first point to its last."""
+    W = "http://www.dji.com/wpmz/1.0.2"
+    K = "http://www.opengis.net/kml/2.2"
+    root = etree.Element(f"{{{K}}}kml", nsmap={None: K, "wpml": W})
+    doc = etree.SubElement(root, f"{{{K}}}Document")
+
+    def add(parent, tag, text=None, ns=W):
+        el = etree.SubElement(parent, f"{{{ns}}}{tag}")
+        if text is not None:
+            el.text = str(text)
+        return el
+    for n, (start, end, pitch) in enumerate(lines):
+        folder = add(doc, "Folder", ns=K)
+        add(folder, "waylineId", n)
+        add(folder, "executeHeightMode", "relativeToStartPoint")
+        add(folder, "autoFlightSpeed", speed)
+        for k, (lon, lat) in enumerate((start, end)):
+            pm = add(folder, "Placemark", ns=K)
+            add(add(pm, "Point", ns=K), "coordinates", f"{lon:.9f},{lat:.9f}", ns=K)
+            add(pm, "index", k)
+            add(pm, "executeHeight", 30)
+            if k == 0:
+                group = add(pm, "actionGroup")
+                add(group, "actionGroupStartIndex", 0)
+                add(group, "actionGroupEndIndex", 0)
+                add(add(group, "actionTrigger"), "actionTriggerType", "reachPoint")
+                action = add(group, "action")
+                add(action, "actionActuatorFunc", "gimbalRotate")
+                fp = add(action, "actionActuatorFuncParam")
+                add(fp, "gimbalPitchRotateEnable", 1)
+                add(fp, "gimbalPitchRotateAngle", pitch)
+                group = add(pm, "actionGroup")
+                add(group, "actionGroupStartIndex", 0)
+                add(group, "actionGroupEndIndex", 1)
+                tr = add(group, "actionTrigger")
+                add(tr, "actionTriggerType", trigger)
+                add(tr, "actionTriggerParam", every)
+                add(add(group, "action"), "actionActuatorFunc", "takePhoto")
+    with zipfile.ZipFile(path, "w") as kmz:
+        kmz.writestr("wpmz/waylines.wpml", etree.tostring(root, xml_declaration=True, encoding="UTF-8"))
+    return path
+
+
+@pytest.mark.parametrize("trigger, every", [("multipleDistance", 5.0), ("multipleTiming", 1.0)])
+def test_mapping_waylines_take_their_interval_photos(tmp_path, trigger, every):
+    """Two waylines 20 m long (north, then east): a photo every 5 m from each first point (the
+    equal-time trigger every 1 s at 5 m/s), pitched as each wayline's gimbalRotate says."""
+    from coverplan.io import read_mission
+
+    geod = Geod(ellps="WGS84")
+    lon0, lat0 = 11.5, 48.1
+    lon1, lat1, _ = geod.fwd(lon0, lat0, 0.0, 20.0)
+    lon2, lat2, _ = geod.fwd(lon0, lat0, 90.0, 20.0)
+    path = _oblique_kmz(tmp_path / "map.kmz", [((lon0, lat0), (lon1, lat1), -45.0), ((lon0, lat0), (lon2, lat2), -90.0)],
+                        every, trigger)
+    mission = read_mission(path)
+    shots = np.flatnonzero(mission.shot)
+    assert len(shots) == 8  # at 0, 5, 10 and 15 m of each line
+    assert np.allclose(mission.pitch[shots], [-45.0] * 4 + [-90.0] * 4)
+    lat, lon = mission.lat[shots], mission.lon[shots]
+    _az, _baz, dist = geod.inv(np.full(8, lon0), np.full(8, lat0), lon, lat)
+    assert np.allclose(np.sort(dist[:4]), [0, 5, 10, 15], atol=0.01)
+    assert np.allclose(np.sort(dist[4:]), [0, 5, 10, 15], atol=0.01)

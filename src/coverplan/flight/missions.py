@@ -24,6 +24,7 @@ from coverplan.geometry.geo import grid_convergence
 from coverplan.shots.reconstructability import MatchRule
 
 TAKEOFF, AMSL, GROUND = "takeoff", "amsl", "ground"  # GROUND: above the ground under the waypoint
+WGS84_A, WGS84_E2 = 6_378_137.0, 6.694379990141e-3  # semi-major axis (m), first eccentricity squared
 
 
 @dataclass
@@ -74,6 +75,28 @@ class MissionBuilder:
         if self.rows and np.isfinite(damping_m) and damping_m > 0:
             self.passes[len(self.rows) - 1] = (float(speed) if np.isfinite(speed) and speed > 0 else 1.0,
                                                float(damping_m))
+
+    def distance_photos(self, lat, lon, alt, every: float, since: float) -> float:
+        """The photos a distance trigger takes on the leg from the last waypoint to (lat, lon,
+        alt): every ``every`` metres of path, ``since`` metres flown since the last one. Returns
+        the metres flown since the last photo at the leg's end."""
+        lat0, lon0, alt0, ref = self.rows[-1][:4]
+        if not (np.isfinite(lat) and np.isfinite(lon)) or not every > 0:
+            return since
+        dz = (alt - alt0) if np.isfinite(alt) else 0.0
+        # metres per degree on the WGS84 ellipsoid at the leg's start: exact to well under a
+        # millimetre over a mission's legs
+        w = 1.0 - WGS84_E2 * np.sin(np.radians(lat0)) ** 2
+        north, east = WGS84_A * (1.0 - WGS84_E2) / w ** 1.5, WGS84_A / np.sqrt(w) * np.cos(np.radians(lat0))
+        d = np.array([np.radians(lon - lon0) * east, np.radians(lat - lat0) * north, dz])
+        length = float(np.linalg.norm(d))
+        s = every - since
+        while s < length - 1e-3:  # one that would fall on the next waypoint (within 1 mm) is not taken
+            t = s / length
+            self.waypoint(lat0 + t * (lat - lat0), lon0 + t * (lon - lon0), alt0 + t * dz, ref)
+            self.photo()
+            s += every
+        return every - (s - length)
 
     def photo(self) -> None:
         if not self.rows:

@@ -135,7 +135,6 @@ def _wpl_row(index, current, frame, command, params) -> str:
 
 NAV_LAND, NAV_LOITER_TIME, CONDITION_YAW = 21, 19, 115
 DO_DIGICAM_CONTROL, DO_MOUNT_CONTROL, DO_SET_CAM_TRIGG_DIST = 203, 205, 206
-_M_PER_DEG = 6_371_008.8 * np.pi / 180.0  # on the mean Earth sphere: legs of a mission, metres apart
 _TAKEOFF_FRAMES = {3, 6}  # MAV_FRAME_GLOBAL_RELATIVE_ALT(_INT): above home
 _AMSL_FRAMES = {0, 5}  # MAV_FRAME_GLOBAL(_INT)
 _TERRAIN_FRAMES = {10, 11}
@@ -166,7 +165,7 @@ def walk_items(items, home, path, source: str):
     for n, (command, frame, params) in enumerate(items, start=1):
         p = [_number(v) for v in (list(params) + [None] * 7)[:7]]
         if command in _NAMES and trigger["every"] > 0 and b.rows:
-            _distance_photos(b, p[4], p[5], p[6], trigger)
+            trigger["since"] = b.distance_photos(p[4], p[5], p[6], trigger["every"], trigger["since"])
         if command in _NAMES:
             if frame in _TERRAIN_FRAMES:
                 raise InputFileError(path, f"item {n} gives its height above terrain (frame {frame}); "
@@ -204,25 +203,6 @@ def walk_items(items, home, path, source: str):
             if trigger["every"] > 0 and p[2] == 1 and b.rows:  # "trigger once immediately"
                 b.photo()
     return b.build(home=home)
-
-
-def _distance_photos(b: MissionBuilder, lat, lon, alt, trigger: dict) -> None:
-    """The photos a distance trigger takes on the leg from the last waypoint to (lat, lon,
-    alt): every ``trigger["every"]`` metres of path, counting on from the last photo."""
-    lat0, lon0, alt0, ref = b.rows[-1][:4]
-    if not (np.isfinite(lat) and np.isfinite(lon)):
-        return
-    dz = (alt - alt0) if np.isfinite(alt) else 0.0
-    d = np.array([(lon - lon0) * np.cos(np.radians(lat0)) * _M_PER_DEG, (lat - lat0) * _M_PER_DEG, dz])
-    length = float(np.linalg.norm(d))
-    every = trigger["every"]
-    s = every - trigger["since"]
-    while s <= length - 1e-6:
-        t = s / length
-        b.waypoint(lat0 + t * (lat - lat0), lon0 + t * (lon - lon0), alt0 + t * dz, ref)
-        b.photo()
-        s += every
-    trigger["since"] = every - (s - length)
 
 
 @register_mission_reader("plan")

@@ -293,12 +293,17 @@ def _number(text) -> float:
 
 @register_mission_reader("kmz")
 def read_wpml(path):
-    """A DJI WPML .kmz as a Mission: the executable waylines.wpml's first wayline, heights
-    relative to the take-off point; photos where a takePhoto action is, with the heading of
-    the group's rotateYaw (else the waypoint's heading angle) and the gimbalRotate pitch (or
-    the pitch a gimbalEvenlyRotate reaches there). Waypoints flown through
-    (toPointAndPassWithContinuityCurvature) keep their turn damping distance, so that the
-    evaluator judges the corners they cut and the photos where the aircraft passes."""
+    """A DJI WPML .kmz as a Mission: the executable waylines.wpml's waylines one after another
+    (a mapping3d oblique mission has five), heights relative to the take-off point.
+
+    Photos: where a takePhoto action is reached, with the heading of the group's rotateYaw
+    (else the waypoint's heading angle) and the gimbalRotate pitch (or the pitch a
+    gimbalEvenlyRotate reaches there); and where an equal-distance or equal-time takePhoto
+    (``multipleDistance`` / ``multipleTiming``, as DJI Pilot 2's mapping templates write them)
+    fires between its first and last waypoint, the time interval turned into metres at the
+    leg's speed. Waypoints flown through (toPointAndPassWithContinuityCurvature) keep their
+    turn damping distance, so that the evaluator judges the corners they cut and the photos
+    where the aircraft passes."""
     try:
         with zipfile.ZipFile(path) as kmz:
             data = kmz.read("wpmz/waylines.wpml")
@@ -311,15 +316,24 @@ def read_wpml(path):
     except etree.XMLSyntaxError as exc:
         raise InputFileError(path, f"wpmz/waylines.wpml is not well-formed XML ({exc})") from None
     ns = {"kml": KML, "wpml": root.nsmap.get("wpml", WPML)}
-    folder = root.find("kml:Document/kml:Folder", ns)
-    if folder is None:
+    folders = root.findall("kml:Document/kml:Folder", ns)
+    if not folders:
         raise InputFileError(path, "has no wayline (no Folder in waylines.wpml)")
-    mode = folder.findtext("wpml:executeHeightMode", default="", namespaces=ns)
-    if mode != "relativeToStartPoint":
-        raise InputFileError(path, f"gives heights as {mode or 'nothing'}; only relativeToStartPoint missions can be "
-                                   "evaluated (ellipsoidal heights need the geoid at the site)")
     b = MissionBuilder(path, "DJI WPML mission")
+    for folder in folders:
+        mode = folder.findtext("wpml:executeHeightMode", default="", namespaces=ns)
+        if mode != "relativeToStartPoint":
+            raise InputFileError(path, f"gives heights as {mode or 'nothing'}; only relativeToStartPoint missions can "
+                                       "be evaluated (ellipsoidal heights need the geoid at the site)")
+        _read_wayline(folder, ns, b, path)
+    return b.build()
+
+
+def _read_wayline(folder, ns, b: MissionBuilder, path) -> None:
+    """One wayline's waypoints and photos into ``b``."""
+    cruise = _number(folder.findtext("wpml:autoFlightSpeed", namespaces=ns))
     pending = {}  # waypoint index -> pitch a gimbalEvenlyRotate reaches there
+    interval = None  # an equal-distance photo trigger: {"every": m, "since": m, "until": index}
     for k, pm in enumerate(folder.findall("kml:Placemark", ns)):
         coords = (pm.findtext("kml:Point/kml:coordinates", default="", namespaces=ns) or "").strip().split(",")
         try:
@@ -328,26 +342,52 @@ def read_wpml(path):
         except (IndexError, TypeError, ValueError):
             raise InputFileError(path, f"waypoint {len(b.rows) + 1} has no readable coordinates or executeHeight") \
                 from None
+        if interval is not None and b.rows:
+            interval["since"] = b.distance_photos(lat, lon, alt, interval["every"], interval["since"])
         angle = pm.findtext("wpml:waypointHeadingParam/wpml:waypointHeadingAngle", namespaces=ns)
         b.waypoint(lat, lon, alt, TAKEOFF, heading=float(angle) if angle is not None else np.nan)
         b.pitch = pending.pop(k, b.pitch)
+        if interval is not None and k >= interval["until"]:
+            interval = None
+        speed = _number(pm.findtext("wpml:waypointSpeed", namespaces=ns))
         if pm.findtext("wpml:waypointTurnParam/wpml:waypointTurnMode", namespaces=ns) == \
                 "toPointAndPassWithContinuityCurvature":
             b.flown_through(_number(pm.findtext("wpml:waypointTurnParam/wpml:waypointTurnDampingDist", namespaces=ns)),
-                            _number(pm.findtext("wpml:waypointSpeed", namespaces=ns)))
-        for action in pm.findall("wpml:actionGroup/wpml:action", ns):
-            func = action.findtext("wpml:actionActuatorFunc", namespaces=ns)
-            param = action.find("wpml:actionActuatorFuncParam", ns)
-            if func == "gimbalEvenlyRotate" and param is not None:
-                end = _number(action.getparent().findtext("wpml:actionGroupEndIndex", namespaces=ns))
-                if np.isfinite(end):
-                    pending[int(end)] = float(param.findtext("wpml:gimbalPitchRotateAngle", default="nan",
-                                                             namespaces=ns))
-            elif func == "rotateYaw" and param is not None:
-                b.heading = float(param.findtext("wpml:aircraftHeading", default="nan", namespaces=ns))
-            elif func == "gimbalRotate" and param is not None and \
-                    param.findtext("wpml:gimbalPitchRotateEnable", namespaces=ns) == "1":
-                b.pitch = float(param.findtext("wpml:gimbalPitchRotateAngle", default="nan", namespaces=ns))
-            elif func == "takePhoto":
-                b.photo()
-    return b.build()
+                            speed)
+        groups = pm.findall("wpml:actionGroup", ns)
+        timed = ("multipleDistance", "multipleTiming")
+
+        def trigger_of(group):
+            return group.findtext("wpml:actionTrigger/wpml:actionTriggerType", default="reachPoint", namespaces=ns)
+        # what happens on reaching the point (gimbal, heading, photo) first, then the interval photos
+        for group in sorted(groups, key=lambda g: trigger_of(g) in timed):
+            trigger = trigger_of(group)
+            funcs = [a.findtext("wpml:actionActuatorFunc", namespaces=ns) for a in group.findall("wpml:action", ns)]
+            if trigger in timed:
+                value = _number(group.findtext("wpml:actionTrigger/wpml:actionTriggerParam", namespaces=ns))
+                leg_speed = speed if np.isfinite(speed) else cruise
+                every = value if trigger == "multipleDistance" else value * leg_speed
+                if "takePhoto" in funcs and np.isfinite(every) and every > 0:
+                    until = _number(group.findtext("wpml:actionGroupEndIndex", namespaces=ns))
+                    interval = {"every": float(every), "since": 0.0,
+                                "until": int(until) if np.isfinite(until) else 1 << 30}
+                    b.photo()  # the first photo where the trigger starts
+                continue
+            for action in group.findall("wpml:action", ns):
+                _reach_action(action, group, ns, b, pending)
+
+
+def _reach_action(action, group, ns, b: MissionBuilder, pending: dict) -> None:
+    func = action.findtext("wpml:actionActuatorFunc", namespaces=ns)
+    param = action.find("wpml:actionActuatorFuncParam", ns)
+    if func == "gimbalEvenlyRotate" and param is not None:
+        end = _number(group.findtext("wpml:actionGroupEndIndex", namespaces=ns))
+        if np.isfinite(end):
+            pending[int(end)] = float(param.findtext("wpml:gimbalPitchRotateAngle", default="nan", namespaces=ns))
+    elif func == "rotateYaw" and param is not None:
+        b.heading = float(param.findtext("wpml:aircraftHeading", default="nan", namespaces=ns))
+    elif func == "gimbalRotate" and param is not None and \
+            param.findtext("wpml:gimbalPitchRotateEnable", namespaces=ns) == "1":
+        b.pitch = float(param.findtext("wpml:gimbalPitchRotateAngle", default="nan", namespaces=ns))
+    elif func == "takePhoto":
+        b.photo()
