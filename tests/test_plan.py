@@ -83,12 +83,13 @@ def test_coverage_rechecked_by_brute_force(planned, name):
     s = ev.samples
     triangles = np.vstack([m.triangles for m in scene.meshes])
     hits, rays = [], []
+    taken = route.flown_positions()  # where the photos are taken: off the waypoint where it flies through
     for k in route.shots:
-        ok = images(route.positions[k], route.heading_deg[k], route.pitch_deg[k], route.camera, s.points,
+        ok = images(taken[k], route.heading_deg[k], route.pitch_deg[k], route.camera, s.points,
                     s.normals, triangles, route.d_opt, 70.0, offset=scene.epsilon * 4)
         idx = np.flatnonzero(ok)
         hits.append(idx)
-        v = route.positions[k] - s.points[idx]
+        v = taken[k] - s.points[idx]
         rays.append(v / np.linalg.norm(v, axis=1, keepdims=True))
     pt = np.concatenate(hits)
     views = np.bincount(pt, minlength=len(s))
@@ -303,7 +304,8 @@ def test_only_roof_covers_the_roof_with_fewer_shots(capsys, tmp_path, planned):
     ev = evaluate(route, scene)
     assert {CLASS_NAMES[k] for k in np.unique(ev.samples.kind)} == {"roof"} and ev.metrics["coverage_pct"] == pytest.approx(100.0)
     triangles = np.vstack([m.triangles for m in scene.meshes])
-    views = sum(images(route.positions[k], route.heading_deg[k], route.pitch_deg[k], route.camera,
+    taken = route.flown_positions()
+    views = sum(images(taken[k], route.heading_deg[k], route.pitch_deg[k], route.camera,
                        ev.samples.points, ev.samples.normals, triangles, route.d_opt, 70.0,
                        offset=scene.epsilon * 4).astype(int) for k in route.shots)
     assert views.min() >= 2

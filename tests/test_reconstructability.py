@@ -227,8 +227,9 @@ def _best_incidence(route, mesh, points, normals):
     """Independently of the planner: per point, the smallest incidence of a shot that images it."""
     from tests.independent import images
     best = np.full(len(points), np.inf)
+    taken = route.flown_positions()  # where the photos are taken
     for k in route.shots:
-        pos = route.positions[k]
+        pos = taken[k]
         seen = images(pos, route.heading_deg[k], route.pitch_deg[k], route.camera, points, normals,
                       mesh.triangles, route.d_opt, 70.0)
         v = pos - points[seen]
