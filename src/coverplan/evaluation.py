@@ -224,7 +224,11 @@ def _flown_through(route: Route, scene, limits: ViewLimits, zones: Zones) -> dic
     path = flown_path(route.positions, np.where(passing, route.turn_damping, 0.0))
     d, _mesh, _exact = scene.clearance_model(route.security).polyline_clearance(path, route.security)
     tol = 1e-6 * max(1.0, route.security)
-    band = limits.segments_allowed(path[:-1], path[1:]) & limits.allowed(path[1:])
+    # the altitude band as the route's own segments are judged (same functions, same tolerance)
+    lowest, highest = heights_above_ground(path, limits)
+    band = (lowest >= limits.min_altitude - ALTITUDE_TOLERANCE_M) & (highest <= limits.max_altitude + ALTITUDE_TOLERANCE_M)
+    _to_ground, near_ground = ground_clearance(path, scene, route.security)
+    band[near_ground] = False
     breaches = _zone_breaches(path, zones)
     offset = np.linalg.norm(route.flown_positions() - route.positions, axis=1)
     return {"waypoints_flown_through": int(passing.sum()), "photos_in_passing": int((passing & route.shot).sum()),
