@@ -224,18 +224,35 @@ def _flown_through(route: Route, scene, limits: ViewLimits, zones: Zones) -> dic
     path = flown_path(route.positions, np.where(passing, route.turn_damping, 0.0))
     d, _mesh, _exact = scene.clearance_model(route.security).polyline_clearance(path, route.security)
     tol = 1e-6 * max(1.0, route.security)
-    # the altitude band as the route's own segments are judged (same functions, same tolerance)
-    lowest, highest = heights_above_ground(path, limits)
-    band = (lowest >= limits.min_altitude - ALTITUDE_TOLERANCE_M) & (highest <= limits.max_altitude + ALTITUDE_TOLERANCE_M)
-    _to_ground, near_ground = ground_clearance(path, scene, route.security)
-    band[near_ground] = False
-    breaches = _zone_breaches(path, zones)
+    band = _segment_band(path, scene, limits, zones, route.security)  # as the route's own segments
+    outside = np.union1d(np.union1d(band.low, band.high), band.near_ground)
     offset = np.linalg.norm(route.flown_positions() - route.positions, axis=1)
     return {"waypoints_flown_through": int(passing.sum()), "photos_in_passing": int((passing & route.shot).sum()),
             "min_clearance_m": float(d.min()) if len(d) else None,
             "max_photo_offset_m": float(offset[route.shot].max()) if route.shot.any() else 0.0,
-            "cut_corners_outside_band": int((~band).sum()), "zone_breaches": len(breaches),
-            "safe": bool((d >= route.security - tol).all() and band.all() and not breaches)}
+            "cut_corners_outside_band": int(len(outside)), "zone_breaches": len(band.zone_breaches),
+            "safe": bool((d >= route.security - tol).all() and not len(outside) and not band.zone_breaches)}
+
+
+@dataclass
+class _Band:
+    lowest: np.ndarray  # (n - 1,) each segment's least height above the ground
+    highest: np.ndarray  # (n - 1,) and its greatest
+    low: np.ndarray  # segments below the minimum altitude
+    high: np.ndarray  # segments above the ceiling
+    to_ground: float | None  # least 3D distance from the terrain (None: flat ground)
+    near_ground: np.ndarray  # segments closer to the terrain than the security distance
+    zone_breaches: list
+
+
+def _segment_band(points, scene, limits: ViewLimits, zones: Zones, security: float) -> _Band:
+    """Where the polyline leaves the altitude band, comes near the terrain or enters a zone,
+    with the altitude tolerance the evaluator allows."""
+    lowest, highest = heights_above_ground(points, limits)
+    to_ground, near_ground = ground_clearance(points, scene, security)
+    return _Band(lowest, highest, np.flatnonzero(lowest < limits.min_altitude - ALTITUDE_TOLERANCE_M),
+                 np.flatnonzero(highest > limits.max_altitude + ALTITUDE_TOLERANCE_M), to_ground,
+                 np.asarray(near_ground), _zone_breaches(points, zones))
 
 
 def _zone_breaches(positions: np.ndarray, zones: Zones) -> list[dict]:
@@ -280,13 +297,11 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
     unsafe = np.flatnonzero(ev.segment_clearance < security - tol)
     p = route.positions
     low = np.flatnonzero(~limits.above_floor(p, ALTITUDE_TOLERANCE_M))
-    lowest, highest = heights_above_ground(p, limits)
-    low_segments = np.flatnonzero(lowest < limits.min_altitude - ALTITUDE_TOLERANCE_M)
-    to_ground, near_ground = ground_clearance(p, scene, security)
-    high = np.flatnonzero(~limits.below_ceiling(p, ALTITUDE_TOLERANCE_M))
-    high_segments = np.flatnonzero(highest > limits.max_altitude + ALTITUDE_TOLERANCE_M)
     zones = Zones.from_list(route.params.get("zones"))
-    zone_breaches = _zone_breaches(p, zones)
+    band = _segment_band(p, scene, limits, zones, security)
+    lowest, highest, low_segments, high_segments = band.lowest, band.highest, band.low, band.high
+    to_ground, near_ground, zone_breaches = band.to_ground, band.near_ground, band.zone_breaches
+    high = np.flatnonzero(~limits.below_ceiling(p, ALTITUDE_TOLERANCE_M))
     orient = route.orientation_errors_deg()
     through = _flown_through(route, scene, limits, zones)
     seg_k = int(np.argmin(ev.segment_clearance)) if len(ev.segment_clearance) else None

@@ -27,6 +27,14 @@ TAKEOFF, AMSL, GROUND = "takeoff", "amsl", "ground"  # GROUND: above the ground 
 WGS84_A, WGS84_E2 = 6_378_137.0, 6.694379990141e-3  # semi-major axis (m), first eccentricity squared
 
 
+def mission_number(v) -> float:
+    """A mission file's number (a JSON value or XML text); NaN where it is missing or not one."""
+    try:
+        return float("nan") if v is None else float(v)
+    except (TypeError, ValueError):
+        return float("nan")
+
+
 @dataclass
 class Mission:
     """Waypoints as a flight app stores them. NaN heading/pitch: the file does not say."""

@@ -34,6 +34,7 @@ import numpy as np
 
 from coverplan.equipment.drones import SURVEY_SHUTTER_S
 from coverplan.errors import ParameterError
+from coverplan.flight.pathing import polyline_checks
 from coverplan.geometry.orientation import camera_axes
 
 
@@ -158,6 +159,13 @@ def trapezoid_seconds(length, entry, exit_, top, acceleration: float) -> np.ndar
     return np.where(L <= 0, 0.0, np.where(ramps <= L, cruise, short))
 
 
+def _flown_legs(model, length, speed, top, heading_deg, pitch_deg) -> np.ndarray:
+    """(n - 1,) each leg's time between its end speeds ``speed`` (n,), no faster than ``top``
+    and no shorter than its heading and gimbal turns."""
+    legs = trapezoid_seconds(length, speed[:-1], speed[1:], top, model.acceleration)
+    return np.maximum(legs, model.rotation_seconds(heading_deg, pitch_deg))
+
+
 def pass_plan(model, positions, shot, heading_deg, pitch_deg, nearest_m, *, pixel_angle: float,
               shutter_s: float, photo_interval_s: float, rules: PassRules = PassRules(),
               stops=None) -> PassPlan:
@@ -227,8 +235,7 @@ def pass_plan(model, positions, shot, heading_deg, pitch_deg, nearest_m, *, pixe
     bound = np.where(can, bound, 0.0)
     speed = reachable_speeds(bound, length, model.acceleration)
     speed = np.where(can, speed, 0.0)
-    legs = trapezoid_seconds(length, speed[:-1], speed[1:], top, model.acceleration)
-    legs = np.maximum(legs, model.rotation_seconds(heading_deg, pitch_deg))
+    legs = _flown_legs(model, length, speed, top, heading_deg, pitch_deg)
     damping = np.where(can, damping, 0.0)
     return PassPlan(speed, damping, corner_offsets(p, damping), legs, np.where(can, 0.0, hover))
 
@@ -353,8 +360,8 @@ def fly_through(route, scene, limits, model, *, pixel_angle: float, shutter_s: f
             path, owner = flown_path(route.positions[rows], damping), rows[corner_rows(damping)]
             if len(path) < 2:
                 continue
-            ok = clearance.segments_clear(path[:-1], path[1:], limits.security) \
-                & limits.segments_allowed(path[:-1], path[1:]) & limits.allowed(path[1:])
+            clear, inside = polyline_checks(path, clearance, limits)
+            ok = clear & inside
             bad[owner[:-1][~ok]] = True
             bad[owner[1:][~ok]] = True
         bad &= plan.passing
@@ -402,9 +409,8 @@ def route_leg_seconds(route, model, photo_interval_s: float) -> np.ndarray:
         p = route.positions[rows]
         top = leg_top_speeds(model, p, route.heading_deg[rows], route.pitch_deg[rows], route.shot[rows],
                              photo_interval_s)
-        v = speed[rows]
-        t = trapezoid_seconds(np.linalg.norm(np.diff(p, axis=0), axis=1), v[:-1], v[1:], top, model.acceleration)
-        legs[rows[:-1]] = np.maximum(t, model.rotation_seconds(route.heading_deg[rows], route.pitch_deg[rows]))
+        legs[rows[:-1]] = _flown_legs(model, np.linalg.norm(np.diff(p, axis=0), axis=1), speed[rows], top,
+                                      route.heading_deg[rows], route.pitch_deg[rows])
     return legs
 
 

@@ -313,3 +313,15 @@ def shortcut(points, clearance, radius: float, batch: int = 8, floor=None) -> np
         keep.append(nxt)
         i = nxt
     return np.array(keep)
+
+
+def polyline_checks(points, clearance, limits) -> tuple[np.ndarray, np.ndarray]:
+    """Per segment of the polyline ``points`` (n, 3): whether it keeps the security distance
+    (exact), and whether it and its two ends stay within the altitude band and out of the
+    zones. Both (n - 1,) bool."""
+    p = np.asarray(points, dtype=float).reshape(-1, 3)
+    if len(p) < 2:
+        return np.zeros(0, dtype=bool), np.zeros(0, dtype=bool)
+    clear = clearance.segments_clear(p[:-1], p[1:], limits.security)
+    ends = limits.allowed(p)
+    return clear, limits.segments_allowed(p[:-1], p[1:]) & ends[:-1] & ends[1:]

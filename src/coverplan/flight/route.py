@@ -147,7 +147,7 @@ class Route:
         if not taken.get("positions"):
             return self
         p = np.asarray(taken["positions"], dtype=float).reshape(-1, 3)
-        k, n = len(p), len(self)
+        k = len(p)
         params = {key: v for key, v in self.params.items() if key != "existing_photos"}
         zeros = np.zeros(k)
         return Route(np.vstack([self.positions, p]), np.concatenate([self.shot, np.ones(k, dtype=bool)]),
@@ -159,8 +159,7 @@ class Route:
                      ground_z=None if self.ground_z is None else np.concatenate([self.ground_z,
                                                                                  np.full(k, self.ground_z[0])]),
                      pass_speed=None if self.pass_speed is None else np.concatenate([self.pass_speed, zeros]),
-                     turn_damping=None if self.turn_damping is None else np.concatenate([self.turn_damping, zeros])
-                     ) if n else self
+                     turn_damping=None if self.turn_damping is None else np.concatenate([self.turn_damping, zeros]))
 
     def flight_minutes(self, speed: float, shot_seconds: float) -> float:
         """The simple estimate: the path at ``speed`` m/s plus ``shot_seconds`` per photo."""

@@ -22,7 +22,7 @@ import numpy as np
 
 from coverplan.errors import InputFileError
 from coverplan.files import read_json, write_atomic
-from coverplan.flight.missions import AMSL, TAKEOFF, MissionBuilder
+from coverplan.flight.missions import AMSL, TAKEOFF, MissionBuilder, mission_number
 from coverplan.flight.passing import PassRules, leg_speeds
 from coverplan.io.geoflight import geo_flight, geo_zones
 from coverplan.io.qgc_complex import expand_complex_item
@@ -141,13 +141,6 @@ _TERRAIN_FRAMES = {10, 11}
 _NAMES = {NAV_WAYPOINT: "waypoint", NAV_TAKEOFF: "take-off", NAV_LAND: "land", NAV_LOITER_TIME: "loiter"}
 
 
-def _number(v) -> float:
-    try:
-        return float("nan") if v is None else float(v)
-    except (TypeError, ValueError):
-        return float("nan")
-
-
 def walk_items(items, home, path, source: str):
     """The Mission of MAVLink mission items (command, frame, 7 params), in order.
 
@@ -163,7 +156,7 @@ def walk_items(items, home, path, source: str):
     home_lat, home_lon = home
     trigger = {"every": 0.0, "since": 0.0}
     for n, (command, frame, params) in enumerate(items, start=1):
-        p = [_number(v) for v in (list(params) + [None] * 7)[:7]]
+        p = [mission_number(v) for v in (list(params) + [None] * 7)[:7]]
         if command in _NAMES and trigger["every"] > 0 and b.rows:
             trigger["since"] = b.distance_photos(p[4], p[5], p[6], trigger["every"], trigger["since"])
         if command in _NAMES:
@@ -226,7 +219,7 @@ def read_plan(path):
         if not isinstance(params, list) or not isinstance(item.get("command"), int):
             raise InputFileError(path, f"mission item {n} has no command and params")
         items.append((item["command"], int(item.get("frame", FRAME_GLOBAL_RELATIVE_ALT)), params))
-    return walk_items(items, (_number(home[0]), _number(home[1])), path, "QGroundControl plan")
+    return walk_items(items, (mission_number(home[0]), mission_number(home[1])), path, "QGroundControl plan")
 
 
 @register_mission_reader("waypoints", "txt")

@@ -33,7 +33,7 @@ from lxml import etree
 from coverplan.equipment.drones import get_drone
 from coverplan.errors import InputFileError, ParameterError
 from coverplan.files import write_atomic_bytes
-from coverplan.flight.missions import TAKEOFF, MissionBuilder
+from coverplan.flight.missions import TAKEOFF, MissionBuilder, mission_number
 from coverplan.flight.passing import leg_speeds
 from coverplan.geometry.geo import ellipsoidal_and_egm96
 from coverplan.io.geoflight import geo_flight
@@ -284,13 +284,6 @@ def write_wpml(route, path, drone=None, speed: float | None = None, wpml_heights
 
 # -- reading, for the evaluator ------------------------------------------------------------
 
-def _number(text) -> float:
-    try:
-        return float(text)
-    except (TypeError, ValueError):
-        return float("nan")
-
-
 @register_mission_reader("kmz")
 def read_wpml(path):
     """A DJI WPML .kmz as a Mission: the executable waylines.wpml's waylines one after another
@@ -331,7 +324,7 @@ def read_wpml(path):
 
 def _read_wayline(folder, ns, b: MissionBuilder, path) -> None:
     """One wayline's waypoints and photos into ``b``."""
-    cruise = _number(folder.findtext("wpml:autoFlightSpeed", namespaces=ns))
+    cruise = mission_number(folder.findtext("wpml:autoFlightSpeed", namespaces=ns))
     pending = {}  # waypoint index -> pitch a gimbalEvenlyRotate reaches there
     interval = None  # an equal-distance photo trigger: {"every": m, "since": m, "until": index}
     for k, pm in enumerate(folder.findall("kml:Placemark", ns)):
@@ -349,10 +342,10 @@ def _read_wayline(folder, ns, b: MissionBuilder, path) -> None:
         b.pitch = pending.pop(k, b.pitch)
         if interval is not None and k >= interval["until"]:
             interval = None
-        speed = _number(pm.findtext("wpml:waypointSpeed", namespaces=ns))
+        speed = mission_number(pm.findtext("wpml:waypointSpeed", namespaces=ns))
         if pm.findtext("wpml:waypointTurnParam/wpml:waypointTurnMode", namespaces=ns) == \
                 "toPointAndPassWithContinuityCurvature":
-            b.flown_through(_number(pm.findtext("wpml:waypointTurnParam/wpml:waypointTurnDampingDist", namespaces=ns)),
+            b.flown_through(mission_number(pm.findtext("wpml:waypointTurnParam/wpml:waypointTurnDampingDist", namespaces=ns)),
                             speed)
         groups = pm.findall("wpml:actionGroup", ns)
         timed = ("multipleDistance", "multipleTiming")
@@ -364,11 +357,11 @@ def _read_wayline(folder, ns, b: MissionBuilder, path) -> None:
             trigger = trigger_of(group)
             funcs = [a.findtext("wpml:actionActuatorFunc", namespaces=ns) for a in group.findall("wpml:action", ns)]
             if trigger in timed:
-                value = _number(group.findtext("wpml:actionTrigger/wpml:actionTriggerParam", namespaces=ns))
+                value = mission_number(group.findtext("wpml:actionTrigger/wpml:actionTriggerParam", namespaces=ns))
                 leg_speed = speed if np.isfinite(speed) else cruise
                 every = value if trigger == "multipleDistance" else value * leg_speed
                 if "takePhoto" in funcs and np.isfinite(every) and every > 0:
-                    until = _number(group.findtext("wpml:actionGroupEndIndex", namespaces=ns))
+                    until = mission_number(group.findtext("wpml:actionGroupEndIndex", namespaces=ns))
                     interval = {"every": float(every), "since": 0.0,
                                 "until": int(until) if np.isfinite(until) else 1 << 30}
                     b.photo()  # the first photo where the trigger starts
@@ -381,7 +374,7 @@ def _reach_action(action, group, ns, b: MissionBuilder, pending: dict) -> None:
     func = action.findtext("wpml:actionActuatorFunc", namespaces=ns)
     param = action.find("wpml:actionActuatorFuncParam", ns)
     if func == "gimbalEvenlyRotate" and param is not None:
-        end = _number(group.findtext("wpml:actionGroupEndIndex", namespaces=ns))
+        end = mission_number(group.findtext("wpml:actionGroupEndIndex", namespaces=ns))
         if np.isfinite(end):
             pending[int(end)] = float(param.findtext("wpml:gimbalPitchRotateAngle", default="nan", namespaces=ns))
     elif func == "rotateYaw" and param is not None:

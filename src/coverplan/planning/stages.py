@@ -35,6 +35,7 @@ from coverplan.flight.pathing import (
     lattice_box,
     lattice_spacing,
     leg,
+    polyline_checks,
     shortcut,
     shot_distances,
 )
@@ -610,15 +611,13 @@ def _route(flights, shots, camera, scene, limits, settings: PlanSettings, spacin
 
 def _final_check(route: Route, scene, limits: ViewLimits) -> None:
     """Never hand out an unsafe route: every segment and waypoint checked once more."""
-    clearance = scene.clearance_model(limits.security)
     p = route.positions
-    ok = clearance.segments_clear(p[:-1], p[1:], limits.security) if len(p) > 1 else np.array([True])
-    low = ~limits.allowed(p)
-    if len(p) > 1:
-        low[1:] |= ~limits.segments_allowed(p[:-1], p[1:])
-    if not ok.all() or low.any():
+    ok, inside = polyline_checks(p, scene.clearance_model(limits.security), limits)
+    if len(p) < 2:
+        inside = limits.allowed(p)
+    if not ok.all() or not inside.all():
         raise RuntimeError(f"internal error: planned route breaks the security distance on "
-                           f"{int((~ok).sum())} segments / altitude or zones at {int(low.sum())} waypoints or segments")
+                           f"{int((~ok).sum())} segments / altitude or zones on {int((~inside).sum())} segments")
 
 
 def zone_margin(settings: PlanSettings, drone: DroneProfile | None) -> float:
