@@ -24,6 +24,7 @@ SCENES = {
     "ring": ("ring_prism.obj", []), "pyramid": ("pyramid.obj", []),
     "fig411": ("thesis_prism.obj", ["fig411_obstacles.obj"]), "gabled": ("gabled_house.obj", []),
     "courtyard": ("courtyard.obj", []), "flush": ("flush_target.obj", ["flush_obstacle.obj"]),
+    "chapel": ("chapel.obj", []),
 }
 
 # (camera preset, gsd m/px or None for the GSD at the thesis's d_opt of 7 m, security m)

@@ -81,7 +81,33 @@ def main():
     # A box with an obstacle (a shed) flush against the middle of its south wall.
     save(cuboid(C - 8, C - 5, 0, C + 8, C + 5, 12), "flush_target.obj")
     save(cuboid(C - 3, C - 8, 0, C + 3, C - 5, 4), "flush_obstacle.obj")
+    save(chapel(), "chapel.obj")
     save_footprints(HERE / "footprints.geojson")
+
+
+def gable_roof(x0, y0, x1, y1, eaves, ridge):
+    """A gabled roof over the box [x0, x1] x [y0, y1], its ridge along x at height ``ridge``."""
+    half = (y1 - y0) / 2
+    roof = prism(Polygon([(-half, 0), (half, 0), (0, ridge - eaves)]), x1 - x0)
+    roof.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [0, 1, 0]))
+    roof.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0, 0]))
+    lo = roof.bounds[0]
+    roof.apply_translation([x0 - lo[0], y0 - lo[1], eaves - lo[2]])
+    return roof
+
+
+def chapel():
+    """A chapel: an 18 x 8 m nave (eaves 7 m, ridge 10 m) and at its west end a 4.5 m square
+    tower of 24 m under a 6 m spire. The tower's faces are tall and narrow (4.5 x 24 m), the
+    kind issue #31 found least rebuilt under field conditions."""
+    nave = cuboid(C - 7, C - 4, 0, C + 11, C + 4, 7)
+    roof = gable_roof(C - 7, C - 4, C + 11, C + 4, 7, 10)
+    tower = cuboid(C - 11.5, C - 2.25, 0, C - 7, C + 2.25, 24)
+    spire = trimesh.Trimesh(
+        vertices=[[C - 11.5, C - 2.25, 24], [C - 7, C - 2.25, 24], [C - 7, C + 2.25, 24],
+                  [C - 11.5, C + 2.25, 24], [C - 9.25, C, 30]],
+        faces=[[0, 2, 1], [0, 3, 2], [0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]])
+    return union(nave, roof, tower, spire)
 
 
 def save_footprints(path) -> None:

@@ -26,6 +26,7 @@ SCENES = {
     "gabled": ("gabled_house.obj", []),
     "courtyard": ("courtyard.obj", []),
     "flush": ("flush_target.obj", ["flush_obstacle.obj"]),
+    "chapel": ("chapel.obj", []),  # a 24 m tower with a spire beside a gabled nave
 }
 
 
