@@ -5,12 +5,14 @@ from __future__ import annotations
 
 import json
 import sys
+from contextlib import contextmanager
 
 import numpy as np
 import pytest
 
 from coverplan import get_camera, plan
 from coverplan.errors import ParameterError
+from coverplan.progress import Progress
 from tests.helpers import MESHES
 
 pycolmap = pytest.importorskip("pycolmap", reason="simulate needs the sfm extra")
@@ -35,12 +37,32 @@ def house(house_job):
 FIELD_SEED = 0
 
 
+class StageLog(Progress):
+    """A Progress that remembers each stage's total and how far its bar got."""
+
+    def __init__(self):
+        super().__init__()
+        self.bars_seen = {}
+
+    @contextmanager
+    def stage(self, name, total=None, unit="it"):
+        done = [0]
+        self.bars_seen[name] = (total, done)
+
+        def tick(n=1):
+            done[0] += n
+        yield tick
+
+
 @pytest.fixture(scope="module")
 def field(house, tmp_path_factory):
     scene, route = house
     out = tmp_path_factory.mktemp("field")
-    return simulate(route, scene, out, conditions="field", draws=1, seed=FIELD_SEED, exhaustive_limit=0,
-                    spatial_neighbours=16), out
+    log = StageLog()
+    sim = simulate(route, scene, out, conditions="field", draws=1, seed=FIELD_SEED, exhaustive_limit=0,
+                   spatial_neighbours=16, progress=log)
+    sim.stage_log = log.bars_seen
+    return sim, out
 
 
 def _colmap_verdict(out, scene, sim):
@@ -98,6 +120,19 @@ def test_field_verdict_comes_from_colmap_output(field, house):
     models = sorted((out / "colmap" / "sparse").iterdir())
     assert models, "COLMAP wrote no model"
     assert max(pycolmap.Reconstruction(m).num_reg_images() for m in models) == sim.registered
+    # Every long stage had a total, and its bar reached it: the time left can be shown. The
+    # matching bar counts pairs; COLMAP's database holds those of them that found matches.
+    db = pycolmap.Database.open(out / "colmap" / "database.db")
+    try:
+        pairs_in_db = db.num_matched_image_pairs()
+    finally:
+        db.close()
+    for name, want in (("rendering photos", len(route.shots)), ("SfM features", len(route.shots))):
+        total, done = sim.stage_log[name]
+        assert total == want and done[0] == want, (name, total, done, want)
+    total, done = sim.stage_log["SfM matching"]
+    assert done[0] == total >= pairs_in_db > len(route.shots), (total, done, pairs_in_db)
+    assert sim.stage_log["SfM mapping"][0] == len(route.shots)
     # The alignment is a similarity fitted to the positions the photos were really taken from:
     # a correct reconstruction puts every registered camera within centimetres of them.
     assert sim.centre_error_m["median"] < 0.05 and sim.centre_error_m["max"] < 0.25, sim.table()
@@ -110,6 +145,27 @@ def test_field_verdict_comes_from_colmap_output(field, house):
     assert len(pts) > 1000 and not (pts[:, 2] < scene.ground_z + 0.1).all()
     assert sim.surface["by_radius"]["0.1"]["pct"] <= sim.surface["by_radius"]["0.2"]["pct"]
 
+
+@pytest.mark.xdist_group("field")
+def test_global_mapper_rebuilds_the_same_flight(field, house, tmp_path):
+    """COLMAP's global mapper (``--mapper global``) on the field draw's own matches: every photo
+    in one model, aligned to where the photos were taken, the house rebuilt to the bar."""
+    from coverplan.sfm.colmap import _aligned, _map
+    from coverplan.sfm.conditions import fly, get_conditions
+    from coverplan.sfm.judge import judge_samples, reconstructed_surface
+    sim, out = field
+    scene, route = house
+    sparse = tmp_path / "sparse"
+    sparse.mkdir()
+    recs = _map(pycolmap, "global", out / "colmap" / "database.db", out / "images", sparse, -1, FIELD_SEED,
+                lambda _n=1: None)
+    names = [f"shot_{k:04d}.png" for k in range(len(route.shots))]
+    flown = fly(route, get_conditions("field"), seed=FIELD_SEED)
+    best = max((_aligned(pycolmap, r, {n: i for i, n in enumerate(names)}, flown.positions) for r in recs.values()),
+               key=lambda m: len(m.image_names))
+    assert best.aligned and len(best.image_names) == len(names)
+    by = reconstructed_surface(judge_samples(scene, 0.1), best.points)["by_radius"]["0.2"]
+    assert by["pct"] >= 95.0 and min(by["by_class_pct"].values()) >= 90.0, by
 
 @pytest.mark.xdist_group("field")
 def test_saved_simulation_loads_for_reports(field, tmp_path):
@@ -179,3 +235,49 @@ def test_large_flights_match_photos_that_see_the_same_surface():
     assert (0, 1) in pairs and (2, 3) in pairs
     assert not any(i in (0, 1) and j in (2, 3) for i, j in pairs)
     assert not any(4 in p for p in pairs)
+
+
+@pytest.mark.parametrize("neighbours, distance", [(5, 8.0), (4, 100.0), (9, 6.0)])
+def test_spatial_pairs_are_the_pairs_colmaps_spatial_matcher_takes(tmp_path, neighbours, distance):
+    """``spatial_pairs`` (matched in chunks, so the bar can show the time left) against COLMAP's
+    own spatial matcher on the same pose priors: the same pairs. The photos are one textured
+    image repeated, so that COLMAP writes matches for every pair it tries; their features are
+    extracted in chunks onto one camera."""
+    from PIL import Image
+    from scipy.ndimage import gaussian_filter
+
+    from coverplan.sfm.colmap import _chunks, _first_camera_id, spatial_pairs, write_position_priors
+    pycolmap.logging.minloglevel = 2
+    rng = np.random.default_rng(neighbours)
+    base = gaussian_filter(rng.random((120, 160)), 2.0)
+    base = ((base - base.min()) / np.ptp(base) * 255).astype(np.uint8)
+    names = [f"p{k:02d}.png" for k in range(18)]
+    (tmp_path / "img").mkdir()
+    for name in names:
+        Image.fromarray(base).save(tmp_path / "img" / name)
+    positions = rng.uniform(0, 20, (len(names), 3))
+    db_path = tmp_path / "database.db"
+    reader = pycolmap.ImageReaderOptions()
+    reader.camera_model, reader.camera_params = "PINHOLE", "100,100,80,60"
+    for part in _chunks(names, 4):
+        pycolmap.extract_features(db_path, tmp_path / "img", image_names=part, camera_mode=pycolmap.CameraMode.SINGLE,
+                                  reader_options=reader, device=pycolmap.Device.cpu)
+        if reader.existing_camera_id < 0:
+            reader.existing_camera_id = _first_camera_id(pycolmap, db_path)
+    write_position_priors(pycolmap, db_path, names, positions, 1.0)
+    pairing = pycolmap.SpatialPairingOptions()
+    pairing.ignore_z, pairing.max_num_neighbors, pairing.max_distance = False, neighbours, distance
+    pycolmap.match_spatial(db_path, pairing_options=pairing, device=pycolmap.Device.cpu)
+    db = pycolmap.Database.open(db_path)
+    try:
+        assert db.num_cameras() == 1 and db.num_images() == len(names)
+        name_of = {im.image_id: im.name for im in db.read_all_images()}
+        theirs = set()
+        for pair_id in db.read_all_matches()[0]:
+            i, j = (names.index(name_of[k]) for k in pycolmap.pair_id_to_image_pair(pair_id))
+            theirs.add((min(i, j), max(i, j)))
+    finally:
+        db.close()
+    ours = spatial_pairs(positions, neighbours, distance)
+    assert len(ours) > len(names) // 2
+    assert set(ours) == theirs

@@ -387,7 +387,7 @@ def _simulate(route, scene, out_dir, args) -> int:
     if args.draws < 1:
         raise ParameterError(f"--draws must be at least 1, got {args.draws}")
     sim = simulate(route, scene, out, conditions=args.conditions, draws=args.draws, texture=args.texture,
-                   matching=args.matching,
+                   matching=args.matching, mapper=args.mapper,
                    width=width, threads=args.threads, progress=progress)
     sim.save(out / "simulation.json")
     if getattr(args, "json", False):
@@ -413,6 +413,9 @@ def _add_simulate_args(p):
     p.add_argument("--matching", default="spatial", choices=("spatial", "covisible"),
                    help="pairs matched in flights over 80 photos: spatial (default, COLMAP's spatial matcher on the "
                         "photos' GNSS tags, as you would run it) or covisible (pairs whose rendered views overlap)")
+    p.add_argument("--mapper", default="incremental", choices=("incremental", "global"),
+                   help="COLMAP's incremental mapper (default) or its global one (GLOMAP), which kept 335 photos "
+                        "of a courtyard block in one model where the incremental one split them")
     p.add_argument("--texture", default="noise", choices=("noise", "cells"),
                    help="texture family under field/harsh conditions: noise (value noise) or cells (cellular stone)")
     p.add_argument("--threads", type=int, default=-1, help="threads for SfM (default: all cores)")

@@ -1,8 +1,8 @@
 """Structure-from-Motion on simulated photos with pycolmap (CPU), and its alignment.
 
 Known intrinsics (one PINHOLE camera, never refined), SIFT features at COLMAP's defaults,
-exhaustive matching for small flights or each photo's co-visible partners for large ones,
-incremental mapping. The largest model is aligned to the true camera centres by a similarity
+exhaustive matching for small flights; for large ones, the pairs COLMAP's spatial matcher
+takes from the photos' GNSS tags (or each photo's co-visible partners); incremental mapping. The largest model is aligned to the true camera centres by a similarity
 (robust LO-RANSAC).
 """
 
@@ -95,6 +95,41 @@ def check_matching(kind: str) -> str:
     return kind
 
 
+MAPPERS = ("incremental", "global")
+
+
+def check_mapper(kind: str) -> str:
+    """``kind`` if it names a COLMAP mapper, else a one-line error."""
+    if kind not in MAPPERS:
+        raise ParameterError(f"unknown mapper {kind!r}; choose one of {', '.join(MAPPERS)}")
+    return kind
+
+
+def _map(pycolmap, mapper: str, database: Path, image_dir: Path, sparse: Path, threads: int, seed: int,
+         tick) -> dict:
+    """COLMAP's models from the matched database, the known intrinsics never refined."""
+    if mapper == "global":
+        options = pycolmap.GlobalPipelineOptions()
+        options.num_threads = threads
+        options.random_seed = seed
+        options.multiple_models = True
+        options.min_model_size = 3
+        options.mapper.global_positioning.use_gpu = False
+        ba = options.mapper.bundle_adjustment
+        ba.refine_focal_length = ba.refine_principal_point = ba.refine_extra_params = False
+        return pycolmap.global_mapping(database, image_dir, sparse, options=options)
+    options = pycolmap.IncrementalPipelineOptions()
+    options.ba_refine_focal_length = False
+    options.ba_refine_principal_point = False
+    options.ba_refine_extra_params = False
+    options.num_threads = threads
+    options.random_seed = seed
+    options.multiple_models = True
+    options.min_model_size = 3
+    return pycolmap.incremental_mapping(database, image_dir, sparse, options=options,
+                                        next_image_callback=lambda: tick(1))
+
+
 def write_position_priors(pycolmap, database: Path, names: list[str], positions: np.ndarray, sigma_m: float) -> None:
     """Each photo's recorded position (its GNSS tag, local metres) as a COLMAP pose prior."""
     db = pycolmap.Database.open(database) if hasattr(pycolmap.Database, "open") else pycolmap.Database(database)
@@ -116,17 +151,22 @@ def write_position_priors(pycolmap, database: Path, names: list[str], positions:
 def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, pairs: list[tuple[int, int]],
             work_dir: Path, *, exhaustive_limit: int = 80, max_features: int = 8192, threads: int = -1,
             seed: int = 0, progress=None, matching: str = "covisible", recorded_positions: np.ndarray | None = None,
-            neighbour_distance: float = 100.0, neighbours: int = SPATIAL_NEIGHBOURS) -> SfmResult:
+            neighbour_distance: float = 100.0, neighbours: int = SPATIAL_NEIGHBOURS,
+            mapper: str = "incremental") -> SfmResult:
     """Features, matching and incremental mapping over the photos ``names`` in ``image_dir``.
 
     Up to ``exhaustive_limit`` photos every pair is matched. Above it, ``matching`` "spatial"
-    matches each photo with its ``neighbours`` nearest by ``recorded_positions`` (the GNSS
-    tags, as a user's own COLMAP run would), within ``neighbour_distance`` metres; "covisible"
-    matches the given ``pairs`` (indices into ``names``)."""
+    matches the pairs COLMAP's spatial matcher takes (``spatial_pairs``: each photo's
+    ``neighbours`` nearest by ``recorded_positions``, the GNSS tags, within
+    ``neighbour_distance`` metres, as a user's own COLMAP run would); "covisible" matches the
+    given ``pairs`` (indices into ``names``). Features and matches are computed in chunks so
+    that the progress bars show the time left. ``mapper``: COLMAP's incremental mapper, or its
+    global one (GLOMAP: rotation averaging, then all positions at once)."""
     import time
 
     pycolmap = require_pycolmap()
     check_matching(matching)
+    check_mapper(mapper)
     pycolmap.logging.minloglevel = 2  # COLMAP's per-image log drowns the progress bars
     work_dir = Path(work_dir)
     if work_dir.exists():
@@ -146,54 +186,41 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     # The rest of SIFT stays at COLMAP's defaults, as a user's own COLMAP run would have it.
     # Starting at octave 0 instead of -1 (no upsampling) found a quarter of the features and
     # left about 10 % of a well-photographed wall without a point within 0.2 m.
-    with _stage(progress, "SfM features"):
-        pycolmap.extract_features(database, image_dir, image_names=names, camera_mode=pycolmap.CameraMode.SINGLE,
-                                  reader_options=reader, extraction_options=extraction,
-                                  device=pycolmap.Device.cpu)
+    # In chunks, so that the bar can say how long is left; every chunk after the first puts
+    # its photos on the first one's camera (one camera, as CameraMode.SINGLE gives in one call).
+    with _stage(progress, "SfM features", total=len(names)) as tick:
+        for part in _chunks(names, CHUNKS):
+            pycolmap.extract_features(database, image_dir, image_names=part, camera_mode=pycolmap.CameraMode.SINGLE,
+                                      reader_options=reader, extraction_options=extraction,
+                                      device=pycolmap.Device.cpu)
+            if reader.existing_camera_id < 0:
+                reader.existing_camera_id = _first_camera_id(pycolmap, database)
+            tick(len(part))
     seconds["features"] = time.perf_counter() - t
 
     t = time.perf_counter()
     matching_kind = matching
     matching = pycolmap.FeatureMatchingOptions()
     matching.num_threads = threads
-    with _stage(progress, "SfM matching"):
-        if len(names) <= exhaustive_limit:
+    if len(names) <= exhaustive_limit:
+        with _stage(progress, "SfM matching"):
             pycolmap.match_exhaustive(database, matching_options=matching, device=pycolmap.Device.cpu)
-        elif matching_kind == "spatial":
-            write_position_priors(pycolmap, database, names, recorded_positions if recorded_positions is not None
-                                  else true_centres, 1.0)
-            pairing = pycolmap.SpatialPairingOptions()
-            pairing.ignore_z = False
-            pairing.max_num_neighbors = int(neighbours)
-            pairing.max_distance = float(neighbour_distance)
-            pycolmap.match_spatial(database, matching_options=matching, pairing_options=pairing,
-                                   device=pycolmap.Device.cpu)
-        else:
-            pairs_file = work_dir / "pairs.txt"
-            pairs_file.write_text("".join(f"{names[i]} {names[j]}\n" for i, j in pairs))
-            pairing = pycolmap.ImportedPairingOptions()
-            pairing.match_list_path = pairs_file
-            pycolmap.match_image_pairs(database, matching_options=matching, pairing_options=pairing,
-                                       device=pycolmap.Device.cpu)
+    else:
+        if matching_kind == "spatial":
+            recorded = recorded_positions if recorded_positions is not None else true_centres
+            write_position_priors(pycolmap, database, names, recorded, 1.0)
+            pairs = spatial_pairs(recorded, neighbours, neighbour_distance)
+        _match_pairs(pycolmap, database, work_dir, names, pairs, matching, progress)
     seconds["matching"] = time.perf_counter() - t
     db = pycolmap.Database.open(database) if hasattr(pycolmap.Database, "open") else pycolmap.Database(database)
     matched, verified = int(db.num_matched_image_pairs()), int(db.num_verified_image_pairs())
     db.close()
 
     t = time.perf_counter()
-    options = pycolmap.IncrementalPipelineOptions()
-    options.ba_refine_focal_length = False
-    options.ba_refine_principal_point = False
-    options.ba_refine_extra_params = False
-    options.num_threads = threads
-    options.random_seed = seed
-    options.multiple_models = True
-    options.min_model_size = 3
     sparse = work_dir / "sparse"
     sparse.mkdir()
-    with _stage(progress, "SfM mapping", total=len(names)) as tick:
-        recs = pycolmap.incremental_mapping(database, image_dir, sparse, options=options,
-                                            next_image_callback=lambda: tick(1))
+    with _stage(progress, "SfM mapping", total=len(names) if mapper == "incremental" else None) as tick:
+        recs = _map(pycolmap, mapper, database, image_dir, sparse, threads, seed, tick)
     seconds["mapping"] = time.perf_counter() - t
     for k, rec in enumerate(sorted(recs.values(), key=lambda r: -r.num_reg_images())):
         (sparse / str(k)).mkdir(exist_ok=True)
@@ -203,6 +230,64 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     models = [_aligned(pycolmap, rec, index, true_centres) for rec in recs.values()]
     models.sort(key=lambda m: -len(m.image_names))
     return SfmResult(models, verified, matched, seconds)
+
+
+CHUNKS = 20  # feature extraction and matching calls per flight: enough for a bar's time left
+
+
+def _chunks(items: list, n: int) -> list:
+    size = max(1, -(-len(items) // n))
+    return [items[s:s + size] for s in range(0, len(items), size)]
+
+
+def _first_camera_id(pycolmap, database: Path) -> int:
+    db = pycolmap.Database.open(database) if hasattr(pycolmap.Database, "open") else pycolmap.Database(database)
+    try:
+        return int(min(c.camera_id for c in db.read_all_cameras()))
+    finally:
+        db.close()
+
+
+def spatial_pairs(positions: np.ndarray, neighbours: int, max_distance: float) -> list[tuple[int, int]]:
+    """The pairs COLMAP's spatial matcher takes: each photo with its ``neighbours`` nearest
+    other photos by recorded position that lie within ``max_distance`` metres.
+
+    Parameters
+    ----------
+    positions : (n, 3) float
+        Recorded positions (GNSS tags in the local frame).
+
+    Returns
+    -------
+    list of (i, j) int, i < j
+    """
+    from scipy.spatial import cKDTree
+
+    positions = np.asarray(positions, dtype=float).reshape(-1, 3)
+    n = len(positions)
+    k = min(int(neighbours) + 1, n)  # the photo itself comes first
+    if k < 2:
+        return []
+    dist, nn = cKDTree(positions).query(positions, k=k, distance_upper_bound=float(max_distance))
+    i = np.repeat(np.arange(n), k)
+    j, d = nn.ravel(), dist.ravel()
+    ok = np.isfinite(d) & (j != i) & (j < n)
+    pairs = np.unique(np.sort(np.stack([i[ok], j[ok]], axis=1), axis=1), axis=0)
+    return [(int(a), int(b)) for a, b in pairs]
+
+
+def _match_pairs(pycolmap, database: Path, work_dir: Path, names: list[str], pairs: list[tuple[int, int]],
+                 options, progress) -> None:
+    """Match and verify the given pairs (indices into ``names``), in chunks for the bar."""
+    pairs_file = work_dir / "pairs.txt"
+    pairing = pycolmap.ImportedPairingOptions()
+    pairing.match_list_path = pairs_file
+    with _stage(progress, "SfM matching", total=len(pairs), unit="pair") as tick:
+        for part in _chunks(list(pairs), CHUNKS):
+            pairs_file.write_text("".join(f"{names[i]} {names[j]}\n" for i, j in part))
+            pycolmap.match_image_pairs(database, matching_options=options, pairing_options=pairing,
+                                       device=pycolmap.Device.cpu)
+            tick(len(part))
 
 
 def _aligned(pycolmap, rec, index: dict, true_centres: np.ndarray) -> SfmModel:
@@ -228,8 +313,8 @@ def _aligned(pycolmap, rec, index: dict, true_centres: np.ndarray) -> SfmModel:
 class _stage:
     """A progress stage if a Progress was given, else nothing."""
 
-    def __init__(self, progress, name, total=None):
-        self.cm = progress.stage(name, total=total, unit="img") if progress is not None else None
+    def __init__(self, progress, name, total=None, unit="img"):
+        self.cm = progress.stage(name, total=total, unit=unit) if progress is not None else None
 
     def __enter__(self):
         return self.cm.__enter__() if self.cm is not None else (lambda _n=1: None)

@@ -19,6 +19,7 @@ from coverplan.errors import InputFileError, ParameterError
 from coverplan.progress import Progress
 from coverplan.sfm.colmap import (
     SPATIAL_NEIGHBOURS,
+    check_mapper,
     check_matching,
     covisible_pairs,
     require_pycolmap,
@@ -67,6 +68,7 @@ class Simulation:
     flown_offset_m: dict = field(default_factory=lambda: {"median": 0.0, "max": 0.0})  # photo vs plan
     draws: list = field(default_factory=list)  # every draw's summary(), worst included
     worst_draw: int = 0
+    mapper: str = "incremental"  # COLMAP's mapper
 
     @property
     def least_class(self) -> tuple[str, float]:
@@ -112,7 +114,7 @@ class Simulation:
                 "surface": self.surface, "photo_width_px": self.photo_width_px, "seconds": self.seconds,
                 "reconstructable": self.reconstructable, "conditions": self.conditions,
                 "texture": self.texture, "flown_offset_m": self.flown_offset_m, "draws": self.draws,
-                "worst_draw": self.worst_draw,
+                "worst_draw": self.worst_draw, "mapper": self.mapper,
                 "shot_registered": self.shot_registered.tolist()}
 
     def table(self) -> str:
@@ -124,7 +126,7 @@ class Simulation:
     def rows(self) -> list[tuple[str, str]]:
         """The verdict as (label, value) rows: the conditions, then the worst draw's figures."""
         by02, by01 = self.surface["by_radius"]["0.2"], self.surface["by_radius"]["0.1"]
-        rows = [("photos", f"{self.photos}"),
+        rows = [("photos", f"{self.photos}" + (f" ({self.mapper} mapping)" if self.mapper != "incremental" else "")),
                 ("registered (largest model)", f"{self.registered} ({100.0 * self.registered / max(self.photos, 1):.1f} %)"),
                 ("registered in any model", f"{self.registered_any}"),
                 ("models", f"{self.models}"),
@@ -194,7 +196,8 @@ class Simulation:
                        d["seconds"], np.array(d["shot_registered"], dtype=bool), np.zeros((0, 3)), np.zeros(0), pts,
                        conditions=d.get("conditions", "ideal"), texture=d.get("texture", "ideal"),
                        flown_offset_m=d.get("flown_offset_m", {"median": 0.0, "max": 0.0}),
-                       draws=d.get("draws", []), worst_draw=d.get("worst_draw", 0))
+                       draws=d.get("draws", []), worst_draw=d.get("worst_draw", 0),
+                       mapper=d.get("mapper", "incremental"))
         except FileNotFoundError:
             raise InputFileError(str(path), "no such file") from None
         except (ValueError, KeyError, TypeError) as exc:
@@ -213,7 +216,8 @@ DEFAULT_DRAWS = 3
 def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, draws: int = DEFAULT_DRAWS,
              texture: str = "noise", matching: str = "spatial", width: int = DEFAULT_WIDTH_PX, threads: int = -1, seed: int = 0,
              exhaustive_limit: int = 80, spatial_neighbours: int = SPATIAL_NEIGHBOURS,
-             judge_spacing: float = JUDGE_SPACING_M, progress: Progress | None = None) -> Simulation:
+             judge_spacing: float = JUDGE_SPACING_M, mapper: str = "incremental",
+             progress: Progress | None = None) -> Simulation:
     """Render the route's photos as a drone would take them, reconstruct them, judge the result.
 
     Parameters
@@ -237,6 +241,8 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
         Above ``exhaustive_limit`` photos: COLMAP's spatial matcher on the photos' GNSS tags (as a
         user would run it) with ``spatial_neighbours`` per photo, or the pairs whose rendered
         views share most surface.
+    mapper : {"incremental", "global"}
+        COLMAP's incremental mapper, or its global one (GLOMAP).
 
     Returns
     -------
@@ -247,6 +253,7 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
     cond = conditions if isinstance(conditions, Conditions) else get_conditions(conditions)
     check_texture(texture)
     check_matching(matching)
+    check_mapper(mapper)
     draws = 1 if cond.name == "ideal" else int(draws)
     if draws < 1:
         raise ParameterError(f"draws must be at least 1, got {draws}")
@@ -260,7 +267,7 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
     for k, folder in enumerate(folders):
         progress.note(f"draw {k + 1} of {draws} ({cond.name}, {texture} textures)")
         runs.append(_simulate_once(route, scene, folder, cond, texture, matching, width, threads, seed + k,
-                                   exhaustive_limit, spatial_neighbours, judge_spacing, progress))
+                                   exhaustive_limit, spatial_neighbours, judge_spacing, mapper, progress))
     worst = min(range(draws), key=lambda k: runs[k].severity)
     sim = runs[worst]
     sim.draws = [dict(r.summary(), seed=seed + k, folder=str(folders[k])) for k, r in enumerate(runs)]
@@ -269,7 +276,7 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
 
 
 def _simulate_once(route, scene, out_dir: Path, cond, texture: str, matching: str, width: int, threads: int, seed: int,
-                   exhaustive_limit: int, spatial_neighbours: int, judge_spacing: float,
+                   exhaustive_limit: int, spatial_neighbours: int, judge_spacing: float, mapper: str,
                    progress: Progress) -> Simulation:
     images = out_dir / "images"
     images.mkdir(parents=True, exist_ok=True)
@@ -309,7 +316,7 @@ def _simulate_once(route, scene, out_dir: Path, cond, texture: str, matching: st
         if len(shots) > exhaustive_limit and matching == "covisible" else []
     sfm = run_sfm(images, names, photo, centres, pairs, out_dir / "colmap", exhaustive_limit=exhaustive_limit,
                   threads=threads, seed=seed, progress=progress, matching=matching, recorded_positions=flown.recorded,
-                  neighbour_distance=max(3.0 * d_opt, 10.0), neighbours=spatial_neighbours)
+                  neighbour_distance=max(3.0 * d_opt, 10.0), neighbours=spatial_neighbours, mapper=mapper)
     seconds.update(sfm.seconds)
     best = sfm.largest
     t = time.perf_counter()
@@ -335,4 +342,5 @@ def _simulate_once(route, scene, out_dir: Path, cond, texture: str, matching: st
         centre_error_m=centre_error, surface=surface, photo_width_px=photo.width, seconds=seconds,
         shot_registered=shot_registered, sample_points=samples.points, sample_distance=distance,
         model_points=pts, conditions=cond.name, texture=texture if cond.physical_textures else "ideal",
-        flown_offset_m={"median": float(np.median(flown.offset_m)), "max": float(flown.offset_m.max())})
+        flown_offset_m={"median": float(np.median(flown.offset_m)), "max": float(flown.offset_m.max())},
+        mapper=mapper)
