@@ -281,3 +281,12 @@ def test_spatial_pairs_are_the_pairs_colmaps_spatial_matcher_takes(tmp_path, nei
     ours = spatial_pairs(positions, neighbours, distance)
     assert len(ours) > len(names) // 2
     assert set(ours) == theirs
+
+
+def test_auto_mapper_maps_large_flights_globally():
+    from coverplan.sfm.colmap import GLOBAL_MAPPING_ABOVE, pick_mapper
+    assert pick_mapper("auto", GLOBAL_MAPPING_ABOVE) == "incremental"
+    assert pick_mapper("auto", GLOBAL_MAPPING_ABOVE + 1) == "global"
+    assert pick_mapper("incremental", 10_000) == "incremental" and pick_mapper("global", 3) == "global"
+    with pytest.raises(ParameterError, match="unknown mapper 'glomap'; choose one of auto, incremental, global"):
+        pick_mapper("glomap", 100)

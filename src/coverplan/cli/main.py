@@ -24,6 +24,7 @@ from coverplan.job import run_job, write_pictures
 from coverplan.planning.settings import DEFAULT_CEILING_M
 from coverplan.progress import Progress
 from coverplan.sfm.check import check as check_photos
+from coverplan.sfm.colmap import GLOBAL_MAPPING_ABOVE
 from coverplan.sfm.existing import read_existing
 from coverplan.sfm.simulate import Simulation, simulate
 from coverplan.shots.reconstructability import MatchRule
@@ -349,7 +350,7 @@ def cmd_check(args) -> int:
     scene = _scene(args)
     progress = Progress(bars=not args.quiet, verbose=args.verbose)
     result = check_photos(args.photos, scene, out, gsd=gsd, security=security, threads=args.threads, fit=args.fit,
-                          progress=progress)
+                          mapper=args.mapper, progress=progress)
     for name, why in result.left_out:
         print(f"coverplan: {name} left out: {why}", file=sys.stderr)
     if args.report:
@@ -401,6 +402,13 @@ def _simulate(route, scene, out_dir, args) -> int:
     return 0
 
 
+def _add_mapper_arg(p):
+    p.add_argument("--mapper", default="auto", choices=("auto", "incremental", "global"),
+                   help="COLMAP's incremental mapper or its global one (GLOMAP); auto (default): global above "
+                        f"{GLOBAL_MAPPING_ABOVE} photos, where the incremental one split flights that the global "
+                        "one kept whole")
+
+
 def _add_simulate_args(p):
     p.add_argument("--photo-width", type=int, default=1024, metavar="PX",
                    help="width of the rendered photos (field of view kept; default 1024)")
@@ -413,9 +421,7 @@ def _add_simulate_args(p):
     p.add_argument("--matching", default="spatial", choices=("spatial", "covisible"),
                    help="pairs matched in flights over 80 photos: spatial (default, COLMAP's spatial matcher on the "
                         "photos' GNSS tags, as you would run it) or covisible (pairs whose rendered views overlap)")
-    p.add_argument("--mapper", default="incremental", choices=("incremental", "global"),
-                   help="COLMAP's incremental mapper (default) or its global one (GLOMAP), which kept 335 photos "
-                        "of a courtyard block in one model where the incremental one split them")
+    _add_mapper_arg(p)
     p.add_argument("--texture", default="noise", choices=("noise", "cells"),
                    help="texture family under field/harsh conditions: noise (value noise) or cells (cellular stone)")
     p.add_argument("--threads", type=int, default=-1, help="threads for SfM (default: all cores)")
@@ -657,6 +663,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-fit", dest="fit", action="store_false",
                    help="judge the model as aligned through the GNSS tags, without fitting it to the scene")
     p.add_argument("--threads", type=int, default=-1)
+    _add_mapper_arg(p)
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--strict", action="store_true", help="exit 1 unless the photos reconstruct (DESIGN.md)")
     p.add_argument("-q", "--quiet", action="store_true")

@@ -159,7 +159,8 @@ def fit_to_scene(points: np.ndarray, surfaces: trimesh.Trimesh, rounds: int = IC
 
 def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.0, threads: int = -1,
           exhaustive_limit: int = 80, spatial_neighbours: int = SPATIAL_NEIGHBOURS,
-          judge_spacing: float = JUDGE_SPACING_M, fit: bool = True, progress: Progress | None = None) -> Check:
+          judge_spacing: float = JUDGE_SPACING_M, fit: bool = True, mapper: str = "auto",
+          progress: Progress | None = None) -> Check:
     """Reconstruct a flight's photos and judge what they rebuilt of ``scene``.
 
     Parameters
@@ -174,6 +175,8 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
         Only for the route the photos make (its report): the GSD and security distance to judge it by.
     fit : bool
         Fit the GNSS-aligned model to the scene's surfaces (ICP) before judging.
+    mapper : {"auto", "incremental", "global"}
+        COLMAP's mapper, as ``simulate`` takes it.
 
     Returns
     -------
@@ -190,7 +193,7 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
     spread = float(np.ptp(gnss, axis=0).max()) if len(gnss) else 0.0
     sfm = run_sfm(folder, names, photo, gnss, [], out_dir / "colmap", exhaustive_limit=exhaustive_limit,
                   threads=threads, progress=progress, matching="spatial", recorded_positions=gnss,
-                  neighbour_distance=max(0.5 * spread, 10.0), neighbours=spatial_neighbours)
+                  neighbour_distance=max(0.5 * spread, 10.0), neighbours=spatial_neighbours, mapper=mapper)
     best = sfm.largest
     pts = best.points if best is not None and best.aligned else np.zeros((0, 3))
     shift, fitted = 0.0, False

@@ -46,6 +46,7 @@ class SfmResult:
     verified_pairs: int
     matched_pairs: int
     seconds: dict = field(default_factory=dict)
+    mapper: str = "incremental"  # the COLMAP mapper that made the models
 
     @property
     def largest(self) -> SfmModel | None:
@@ -95,14 +96,28 @@ def check_matching(kind: str) -> str:
     return kind
 
 
-MAPPERS = ("incremental", "global")
+MAPPERS = ("auto", "incremental", "global")
+# "auto" maps flights of more photos than this with the global mapper: the incremental one
+# split the courtyard block's 180- and 335-photo field flights (two and three models) on
+# matches that joined every photo, where the global one kept each whole; up to 118 photos
+# (Figure 4.11's scene) it passed every field draw (docs/reconstruction.md).
+GLOBAL_MAPPING_ABOVE = 150
 
 
 def check_mapper(kind: str) -> str:
-    """``kind`` if it names a COLMAP mapper, else a one-line error."""
+    """``kind`` if it names a COLMAP mapper (or "auto"), else a one-line error."""
     if kind not in MAPPERS:
         raise ParameterError(f"unknown mapper {kind!r}; choose one of {', '.join(MAPPERS)}")
     return kind
+
+
+def pick_mapper(kind: str, photos: int) -> str:
+    """The mapper that ``kind`` names for a flight of ``photos`` photos: "auto" is COLMAP's
+    incremental mapper up to ``GLOBAL_MAPPING_ABOVE`` photos and its global one above."""
+    check_mapper(kind)
+    if kind != "auto":
+        return kind
+    return "global" if photos > GLOBAL_MAPPING_ABOVE else "incremental"
 
 
 def _map(pycolmap, mapper: str, database: Path, image_dir: Path, sparse: Path, threads: int, seed: int,
@@ -152,7 +167,7 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
             work_dir: Path, *, exhaustive_limit: int = 80, max_features: int = 8192, threads: int = -1,
             seed: int = 0, progress=None, matching: str = "covisible", recorded_positions: np.ndarray | None = None,
             neighbour_distance: float = 100.0, neighbours: int = SPATIAL_NEIGHBOURS,
-            mapper: str = "incremental") -> SfmResult:
+            mapper: str = "auto") -> SfmResult:
     """Features, matching and incremental mapping over the photos ``names`` in ``image_dir``.
 
     Up to ``exhaustive_limit`` photos every pair is matched. Above it, ``matching`` "spatial"
@@ -160,13 +175,14 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     ``neighbours`` nearest by ``recorded_positions``, the GNSS tags, within
     ``neighbour_distance`` metres, as a user's own COLMAP run would); "covisible" matches the
     given ``pairs`` (indices into ``names``). Features and matches are computed in chunks so
-    that the progress bars show the time left. ``mapper``: COLMAP's incremental mapper, or its
-    global one (GLOMAP: rotation averaging, then all positions at once)."""
+    that the progress bars show the time left. ``mapper``: COLMAP's incremental mapper, its
+    global one (GLOMAP: rotation averaging, then all positions at once), or "auto"
+    (``pick_mapper``)."""
     import time
 
     pycolmap = require_pycolmap()
     check_matching(matching)
-    check_mapper(mapper)
+    mapper = pick_mapper(mapper, len(names))
     pycolmap.logging.minloglevel = 2  # COLMAP's per-image log drowns the progress bars
     work_dir = Path(work_dir)
     if work_dir.exists():
@@ -229,7 +245,7 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     index = {name: i for i, name in enumerate(names)}
     models = [_aligned(pycolmap, rec, index, true_centres) for rec in recs.values()]
     models.sort(key=lambda m: -len(m.image_names))
-    return SfmResult(models, verified, matched, seconds)
+    return SfmResult(models, verified, matched, seconds, mapper)
 
 
 CHUNKS = 20  # feature extraction and matching calls per flight: enough for a bar's time left

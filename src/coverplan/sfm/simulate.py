@@ -216,7 +216,7 @@ DEFAULT_DRAWS = 3
 def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, draws: int = DEFAULT_DRAWS,
              texture: str = "noise", matching: str = "spatial", width: int = DEFAULT_WIDTH_PX, threads: int = -1, seed: int = 0,
              exhaustive_limit: int = 80, spatial_neighbours: int = SPATIAL_NEIGHBOURS,
-             judge_spacing: float = JUDGE_SPACING_M, mapper: str = "incremental",
+             judge_spacing: float = JUDGE_SPACING_M, mapper: str = "auto",
              progress: Progress | None = None) -> Simulation:
     """Render the route's photos as a drone would take them, reconstruct them, judge the result.
 
@@ -241,8 +241,9 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
         Above ``exhaustive_limit`` photos: COLMAP's spatial matcher on the photos' GNSS tags (as a
         user would run it) with ``spatial_neighbours`` per photo, or the pairs whose rendered
         views share most surface.
-    mapper : {"incremental", "global"}
-        COLMAP's incremental mapper, or its global one (GLOMAP).
+    mapper : {"auto", "incremental", "global"}
+        COLMAP's incremental mapper, its global one (GLOMAP), or "auto": the global one for
+        flights of more than ``colmap.GLOBAL_MAPPING_ABOVE`` photos.
 
     Returns
     -------
@@ -343,4 +344,4 @@ def _simulate_once(route, scene, out_dir: Path, cond, texture: str, matching: st
         shot_registered=shot_registered, sample_points=samples.points, sample_distance=distance,
         model_points=pts, conditions=cond.name, texture=texture if cond.physical_textures else "ideal",
         flown_offset_m={"median": float(np.median(flown.offset_m)), "max": float(flown.offset_m.max())},
-        mapper=mapper)
+        mapper=sfm.mapper)
