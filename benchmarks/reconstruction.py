@@ -20,6 +20,7 @@ from pathlib import Path
 from common import MESHES, table, write_json
 from coverplan import evaluate, get_camera, load_scene, plan
 from coverplan.progress import Progress
+from coverplan.sfm.colmap import SPATIAL_NEIGHBOURS
 from coverplan.sfm.simulate import simulate
 from structure_scan import scan_with_roof_grid, structure_scan
 
@@ -28,6 +29,7 @@ SCENES = {
     "courtyard": ("courtyard.obj", []),
     "gabled": ("gabled_house.obj", []),
     "fig411": ("thesis_prism.obj", ["fig411_obstacles.obj"]),  # thesis prism with the Figure 4.11 obstacle
+    "chapel": ("chapel.obj", []),  # a nave and a 24 m tower: tall, narrow faces
 }
 CAMERA, GSD, SECURITY = "phantom4pro", 0.004, 3.0
 SPEED, SHOT_SECONDS = 5.0, 1.0
@@ -38,10 +40,11 @@ def flight_minutes(route) -> float:
 
 
 def run(name, flight, route, scene, plan_s, out: Path, width: int, conditions: str = "field", draws: int = 3,
-        texture: str = "noise") -> dict:
+        texture: str = "noise", seed: int = 0, neighbours: int = SPATIAL_NEIGHBOURS, mapper: str = "auto") -> dict:
     ev = evaluate(route, scene)
     sim = simulate(route, scene, out / f"{name}_{flight}_{conditions}_{texture}", width=width, conditions=conditions,
-                   draws=draws, texture=texture, progress=Progress(verbose=True))
+                   draws=draws, texture=texture, seed=seed, spatial_neighbours=neighbours, mapper=mapper,
+                   progress=Progress(verbose=True))
     by = sim.surface["by_radius"]["0.2"]
     drawn = sim.draws or [sim.summary()]
     row = {"scene": name, "flight": flight, "conditions": conditions, "texture": sim.texture, "draws": len(drawn),
@@ -55,7 +58,8 @@ def run(name, flight, route, scene, plan_s, out: Path, width: int, conditions: s
            "by_class_02_pct": by["by_class_pct"], "worst_class": min(by["by_class_pct"], key=by["by_class_pct"].get),
            "worst_class_pct": min(by["by_class_pct"].values()), "safe": ev.safe,
            "coverage_pct": ev.coverage_pct, "components": ev.metrics["shot_graph"]["components"],
-           "reconstructable": sim.reconstructable, "sim_seconds": sim.seconds}
+           "reconstructable": sim.reconstructable, "sim_seconds": sim.seconds,
+           "first_seed": seed, "spatial_neighbours": neighbours, "mapper": mapper}
     print(f"  {name} {flight}: {sim.registered}/{sim.photos} registered, {sim.models} models, "
           f"{by['pct']:.1f} % @0.2 m", flush=True)
     return row
@@ -70,6 +74,10 @@ def main(argv=None):
                         choices=flights)
     parser.add_argument("--conditions", nargs="+", default=["field"], choices=["ideal", "field", "harsh"])
     parser.add_argument("--draws", type=int, default=3)
+    parser.add_argument("--seed", type=int, default=0, help="first draw's seed (draws split over runs)")
+    parser.add_argument("--neighbours", type=int, default=SPATIAL_NEIGHBOURS,
+                        help="spatial matching above 80 photos: nearest photos per photo")
+    parser.add_argument("--mapper", default="auto", choices=["auto", "incremental", "global"])
     parser.add_argument("--textures", nargs="+", default=["noise"], choices=["noise", "cells"])
     parser.add_argument("--width", type=int, default=1024, help="rendered photo width in px")
     parser.add_argument("--keep", default=None, help="folder to keep photos and COLMAP files in")
@@ -110,7 +118,8 @@ def main(argv=None):
                 made_s = ours_s if flight == "coverplan" else time.perf_counter() - t
                 for cond in args.conditions:
                     for texture in (["noise"] if cond == "ideal" else args.textures):
-                        rows.append(run(name, flight, route, scene, made_s, out, args.width, cond, args.draws, texture))
+                        rows.append(run(name, flight, route, scene, made_s, out, args.width, cond, args.draws, texture,
+                                        args.seed, args.neighbours, args.mapper))
                         save(rows)
     print(table(rows, [("scene", "scene", ""), ("flight", "flight", ""), ("conditions", "conditions", ""),
                        ("texture", "texture", ""), ("photos", "photos", "d"),
