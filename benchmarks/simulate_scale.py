@@ -28,12 +28,12 @@ DRONE, SECURITY = "m3e", 2.0
 STAGES = ("render", "features", "matching", "mapping", "judge")
 
 
-def growth(photos, seconds) -> float:
-    """b in seconds = a * photos^b, least squares in log-log."""
+def growth(photos, seconds) -> float | None:
+    """b in seconds = a * photos^b, least squares in log-log; None below two photo counts."""
     photos, seconds = np.asarray(photos, float), np.asarray(seconds, float)
     ok = (photos > 0) & (seconds > 0)
-    if ok.sum() < 2:
-        return float("nan")
+    if len(np.unique(photos[ok])) < 2:
+        return None
     return float(np.polyfit(np.log(photos[ok]), np.log(seconds[ok]), 1)[0])
 
 
@@ -85,7 +85,8 @@ def main(argv=None):
                        ("registered", "registered", "d"), ("models", "models", "d"),
                        ("surface_02_pct", "@0.2 m %", ".1f"), ("least_class", "least class", ""),
                        ("least_class_pct", "least %", ".1f")]))
-    print("time ~ photos^b: " + ", ".join(f"{k} {b:.2f}" for k, b in fit.items()))
+    if all(b is not None for b in fit.values()):
+        print("time ~ photos^b: " + ", ".join(f"{k} {b:.2f}" for k, b in fit.items()))
     path = write_json(name, args.quick, {"drone": DRONE, "scene": args.scene, "photo_width_px": args.width,
                                          "neighbours": args.neighbours, "mapper": args.mapper,
                                          "growth_exponent": fit, "rows": rows})
