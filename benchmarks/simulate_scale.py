@@ -5,8 +5,8 @@ each time, the same building), and each flight is simulated under field conditio
 user with GNSS-tagged photos would reconstruct it: COLMAP's spatial pairs on the photos'
 recorded positions, photos rendered at a reduced width with the camera's field of view kept,
 COLMAP's global mapper (``--mapper``; the incremental one split a 335-photo flight).
-The table gives each stage's time (rendering, features, matching, mapping, judging), the
-pairs matched, and the verdict (registered, models, surface at 0.2 m, least class); the last
+The table gives each stage's time (rendering, features, matching, mapping, judging) and
+the verdict (registered, models, surface at 0.2 m, least class); the last
 line fits time = a * photos^b per stage. ``--quick`` runs two small flights.
 """
 

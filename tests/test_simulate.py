@@ -167,6 +167,7 @@ def test_global_mapper_rebuilds_the_same_flight(field, house, tmp_path):
     by = reconstructed_surface(judge_samples(scene, 0.1), best.points)["by_radius"]["0.2"]
     assert by["pct"] >= 95.0 and min(by["by_class_pct"].values()) >= 90.0, by
 
+
 @pytest.mark.xdist_group("field")
 def test_saved_simulation_loads_for_reports(field, tmp_path):
     sim, _out = field
@@ -246,7 +247,7 @@ def test_spatial_pairs_are_the_pairs_colmaps_spatial_matcher_takes(tmp_path, nei
     from PIL import Image
     from scipy.ndimage import gaussian_filter
 
-    from coverplan.sfm.colmap import _chunks, _first_camera_id, spatial_pairs, write_position_priors
+    from coverplan.sfm.colmap import extract_features, spatial_pairs, write_position_priors
     pycolmap.logging.minloglevel = 2
     rng = np.random.default_rng(neighbours)
     base = gaussian_filter(rng.random((120, 160)), 2.0)
@@ -259,11 +260,10 @@ def test_spatial_pairs_are_the_pairs_colmaps_spatial_matcher_takes(tmp_path, nei
     db_path = tmp_path / "database.db"
     reader = pycolmap.ImageReaderOptions()
     reader.camera_model, reader.camera_params = "PINHOLE", "100,100,80,60"
-    for part in _chunks(names, 4):
-        pycolmap.extract_features(db_path, tmp_path / "img", image_names=part, camera_mode=pycolmap.CameraMode.SINGLE,
-                                  reader_options=reader, device=pycolmap.Device.cpu)
-        if reader.existing_camera_id < 0:
-            reader.existing_camera_id = _first_camera_id(pycolmap, db_path)
+    chunks = []
+    extract_features(pycolmap, db_path, tmp_path / "img", names, reader, pycolmap.FeatureExtractionOptions(),
+                     chunks.append)
+    assert len(chunks) > 1 and sum(chunks) == len(names)
     write_position_priors(pycolmap, db_path, names, positions, 1.0)
     pairing = pycolmap.SpatialPairingOptions()
     pairing.ignore_z, pairing.max_num_neighbors, pairing.max_distance = False, neighbours, distance

@@ -2,7 +2,8 @@
 
 Known intrinsics (one PINHOLE camera, never refined), SIFT features at COLMAP's defaults,
 exhaustive matching for small flights; for large ones, the pairs COLMAP's spatial matcher
-takes from the photos' GNSS tags (or each photo's co-visible partners); incremental mapping. The largest model is aligned to the true camera centres by a similarity
+takes from the photos' GNSS tags (or each photo's co-visible partners); COLMAP's incremental
+or global mapper. The largest model is aligned to the true camera centres by a similarity
 (robust LO-RANSAC).
 """
 
@@ -123,31 +124,27 @@ def pick_mapper(kind: str, photos: int) -> str:
 def _map(pycolmap, mapper: str, database: Path, image_dir: Path, sparse: Path, threads: int, seed: int,
          tick) -> dict:
     """COLMAP's models from the matched database, the known intrinsics never refined."""
-    if mapper == "global":
-        options = pycolmap.GlobalPipelineOptions()
-        options.num_threads = threads
-        options.random_seed = seed
-        options.multiple_models = True
-        options.min_model_size = 3
-        options.mapper.global_positioning.use_gpu = False
-        ba = options.mapper.bundle_adjustment
-        ba.refine_focal_length = ba.refine_principal_point = ba.refine_extra_params = False
-        return pycolmap.global_mapping(database, image_dir, sparse, options=options)
-    options = pycolmap.IncrementalPipelineOptions()
-    options.ba_refine_focal_length = False
-    options.ba_refine_principal_point = False
-    options.ba_refine_extra_params = False
+    glob = mapper == "global"
+    options = pycolmap.GlobalPipelineOptions() if glob else pycolmap.IncrementalPipelineOptions()
     options.num_threads = threads
     options.random_seed = seed
     options.multiple_models = True
     options.min_model_size = 3
+    if glob:
+        options.mapper.global_positioning.use_gpu = False
+        ba = options.mapper.bundle_adjustment
+        ba.refine_focal_length = ba.refine_principal_point = ba.refine_extra_params = False
+        return pycolmap.global_mapping(database, image_dir, sparse, options=options)
+    options.ba_refine_focal_length = False
+    options.ba_refine_principal_point = False
+    options.ba_refine_extra_params = False
     return pycolmap.incremental_mapping(database, image_dir, sparse, options=options,
                                         next_image_callback=lambda: tick(1))
 
 
 def write_position_priors(pycolmap, database: Path, names: list[str], positions: np.ndarray, sigma_m: float) -> None:
     """Each photo's recorded position (its GNSS tag, local metres) as a COLMAP pose prior."""
-    db = pycolmap.Database.open(database) if hasattr(pycolmap.Database, "open") else pycolmap.Database(database)
+    db = _open_database(pycolmap, database)
     try:
         index = {name: k for k, name in enumerate(names)}
         cov = np.eye(3) * float(sigma_m) ** 2
@@ -168,7 +165,7 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
             seed: int = 0, progress=None, matching: str = "covisible", recorded_positions: np.ndarray | None = None,
             neighbour_distance: float = 100.0, neighbours: int = SPATIAL_NEIGHBOURS,
             mapper: str = "auto") -> SfmResult:
-    """Features, matching and incremental mapping over the photos ``names`` in ``image_dir``.
+    """Features, matching and mapping over the photos ``names`` in ``image_dir``.
 
     Up to ``exhaustive_limit`` photos every pair is matched. Above it, ``matching`` "spatial"
     matches the pairs COLMAP's spatial matcher takes (``spatial_pairs``: each photo's
@@ -202,16 +199,8 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     # The rest of SIFT stays at COLMAP's defaults, as a user's own COLMAP run would have it.
     # Starting at octave 0 instead of -1 (no upsampling) found a quarter of the features and
     # left about 10 % of a well-photographed wall without a point within 0.2 m.
-    # In chunks, so that the bar can say how long is left; every chunk after the first puts
-    # its photos on the first one's camera (one camera, as CameraMode.SINGLE gives in one call).
     with _stage(progress, "SfM features", total=len(names)) as tick:
-        for part in _chunks(names, CHUNKS):
-            pycolmap.extract_features(database, image_dir, image_names=part, camera_mode=pycolmap.CameraMode.SINGLE,
-                                      reader_options=reader, extraction_options=extraction,
-                                      device=pycolmap.Device.cpu)
-            if reader.existing_camera_id < 0:
-                reader.existing_camera_id = _first_camera_id(pycolmap, database)
-            tick(len(part))
+        extract_features(pycolmap, database, image_dir, names, reader, extraction, tick)
     seconds["features"] = time.perf_counter() - t
 
     t = time.perf_counter()
@@ -228,7 +217,7 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
             pairs = spatial_pairs(recorded, neighbours, neighbour_distance)
         _match_pairs(pycolmap, database, work_dir, names, pairs, matching, progress)
     seconds["matching"] = time.perf_counter() - t
-    db = pycolmap.Database.open(database) if hasattr(pycolmap.Database, "open") else pycolmap.Database(database)
+    db = _open_database(pycolmap, database)
     matched, verified = int(db.num_matched_image_pairs()), int(db.num_verified_image_pairs())
     db.close()
 
@@ -256,12 +245,25 @@ def _chunks(items: list, n: int) -> list:
     return [items[s:s + size] for s in range(0, len(items), size)]
 
 
-def _first_camera_id(pycolmap, database: Path) -> int:
-    db = pycolmap.Database.open(database) if hasattr(pycolmap.Database, "open") else pycolmap.Database(database)
-    try:
-        return int(min(c.camera_id for c in db.read_all_cameras()))
-    finally:
-        db.close()
+def _open_database(pycolmap, database: Path):
+    return pycolmap.Database.open(database) if hasattr(pycolmap.Database, "open") else pycolmap.Database(database)
+
+
+def extract_features(pycolmap, database: Path, image_dir: Path, names: list[str], reader, extraction,
+                     tick=lambda _n=1: None) -> None:
+    """SIFT features of the photos ``names`` into ``database``, in chunks so that a bar can say
+    how long is left (``tick`` per chunk). Every chunk after the first puts its photos on the
+    first one's camera: one camera, as CameraMode.SINGLE gives in one call."""
+    for part in _chunks(names, CHUNKS):
+        pycolmap.extract_features(database, image_dir, image_names=part, camera_mode=pycolmap.CameraMode.SINGLE,
+                                  reader_options=reader, extraction_options=extraction, device=pycolmap.Device.cpu)
+        if reader.existing_camera_id < 0:
+            db = _open_database(pycolmap, database)
+            try:
+                reader.existing_camera_id = int(min(c.camera_id for c in db.read_all_cameras()))
+            finally:
+                db.close()
+        tick(len(part))
 
 
 def spatial_pairs(positions: np.ndarray, neighbours: int, max_distance: float) -> list[tuple[int, int]]:
