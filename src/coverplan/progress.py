@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import threading
 import time
 from contextlib import contextmanager
 
@@ -42,3 +43,38 @@ class Progress:
 
 def _ignore(_n: int = 1) -> None:
     return None
+
+
+@contextmanager
+def clock_bar(update, total_s: int, period_s: float = 1.0):
+    """Advance a bar of ``total_s`` seconds by the clock while the block runs, for work that
+    reports no progress of its own but whose duration can be estimated. The bar stops one
+    short of its total if the work runs over, and fills up when the block ends.
+
+    Parameters
+    ----------
+    update : callable
+        A stage's ``update(n)``.
+    total_s : int
+        The estimated duration in seconds: the bar's total.
+    period_s : float
+        Seconds between updates.
+    """
+    total_s = max(int(total_s), 1)
+    done = [0]
+    stop = threading.Event()
+
+    def run():
+        while not stop.wait(period_s):
+            if done[0] < total_s - 1:
+                done[0] += 1
+                update(1)
+
+    ticker = threading.Thread(target=run, daemon=True)
+    ticker.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        ticker.join()
+        update(total_s - done[0])

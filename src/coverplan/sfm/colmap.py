@@ -9,6 +9,7 @@ or global mapper. The largest model is aligned to the true camera centres by a s
 
 from __future__ import annotations
 
+import os
 import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -16,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from coverplan.errors import ParameterError
+from coverplan.progress import clock_bar
 
 INSTALL_HINT = "simulate needs pycolmap; install it with: pip install 'coverplan[sfm]'"
 
@@ -103,6 +105,19 @@ MAPPERS = ("auto", "incremental", "global")
 # matches that joined every photo, where the global one kept each whole; up to 118 photos
 # (Figure 4.11's scene) it passed every field draw (docs/reconstruction.md).
 GLOBAL_MAPPING_ABOVE = 150
+
+
+# Seconds per photo of COLMAP's global mapper on 2 cores: 1.18, 1.36 and 1.13 at 180, 335
+# and 1,053 photos (benchmarks/simulate_scale.py). It gives no callback while it runs, so its
+# progress bar runs on this estimate.
+GLOBAL_MAPPING_S_PER_PHOTO = 1.3
+
+
+def global_mapping_seconds(photos: int, threads: int = -1) -> int:
+    """Estimated seconds COLMAP's global mapper takes for ``photos`` photos on ``threads``
+    threads (-1: every core), from the rate measured on 2 cores."""
+    cores = (os.cpu_count() or 2) if threads is None or threads <= 0 else threads
+    return max(1, int(round(GLOBAL_MAPPING_S_PER_PHOTO * photos * 2.0 / max(min(cores, 16), 1))))
 
 
 def check_mapper(kind: str) -> str:
@@ -224,8 +239,14 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     t = time.perf_counter()
     sparse = work_dir / "sparse"
     sparse.mkdir()
-    with _stage(progress, "SfM mapping", total=len(names) if mapper == "incremental" else None) as tick:
-        recs = _map(pycolmap, mapper, database, image_dir, sparse, threads, seed, tick)
+    if mapper == "incremental":
+        with _stage(progress, "SfM mapping", total=len(names)) as tick:
+            recs = _map(pycolmap, mapper, database, image_dir, sparse, threads, seed, tick)
+    else:  # the global mapper reports nothing while it runs: its bar is its estimated time
+        estimate = global_mapping_seconds(len(names), threads)
+        with _stage(progress, "SfM mapping (time estimated)", total=estimate, unit="s") as tick, \
+                clock_bar(tick, estimate):
+            recs = _map(pycolmap, mapper, database, image_dir, sparse, threads, seed, tick)
     seconds["mapping"] = time.perf_counter() - t
     for k, rec in enumerate(sorted(recs.values(), key=lambda r: -r.num_reg_images())):
         (sparse / str(k)).mkdir(exist_ok=True)
