@@ -150,16 +150,20 @@ def test_field_verdict_comes_from_colmap_output(field, house):
 def test_global_mapper_rebuilds_the_same_flight(field, house, tmp_path):
     """COLMAP's global mapper (``--mapper global``) on the field draw's own matches: every photo
     in one model, aligned to where the photos were taken, the house rebuilt to the bar."""
-    from coverplan.sfm.colmap import _aligned, _map
+    from coverplan.sfm.colmap import _aligned, global_mapping_seconds, map_models
     from coverplan.sfm.conditions import fly, get_conditions
     from coverplan.sfm.judge import judge_samples, reconstructed_surface
     sim, out = field
     scene, route = house
     sparse = tmp_path / "sparse"
     sparse.mkdir()
-    recs = _map(pycolmap, "global", out / "colmap" / "database.db", out / "images", sparse, -1, FIELD_SEED,
-                lambda _n=1: None)
+    log = StageLog()
     names = [f"shot_{k:04d}.png" for k in range(len(route.shots))]
+    recs = map_models(pycolmap, "global", out / "colmap" / "database.db", out / "images", sparse, -1, FIELD_SEED,
+                      len(names), progress=log)
+    # Its bar runs on the estimated time, and is full when the mapper returns.
+    total, done = log.bars_seen["SfM mapping (time estimated)"]
+    assert total == global_mapping_seconds(len(names), -1) and done[0] == total
     flown = fly(route, get_conditions("field"), seed=FIELD_SEED)
     best = max((_aligned(pycolmap, r, {n: i for i, n in enumerate(names)}, flown.positions) for r in recs.values()),
                key=lambda m: len(m.image_names))

@@ -157,6 +157,20 @@ def _map(pycolmap, mapper: str, database: Path, image_dir: Path, sparse: Path, t
                                         next_image_callback=lambda: tick(1))
 
 
+def map_models(pycolmap, mapper: str, database: Path, image_dir: Path, sparse: Path, threads: int, seed: int,
+               photos: int, progress=None) -> dict:
+    """``_map`` under a progress bar: one step per photo the incremental mapper registers; for
+    the global mapper, which reports nothing while it runs, seconds against its estimated time
+    (``global_mapping_seconds``)."""
+    if mapper == "incremental":
+        with _stage(progress, "SfM mapping", total=photos) as tick:
+            return _map(pycolmap, mapper, database, image_dir, sparse, threads, seed, tick)
+    estimate = global_mapping_seconds(photos, threads)
+    with _stage(progress, "SfM mapping (time estimated)", total=estimate, unit="s") as tick, \
+            clock_bar(tick, estimate):
+        return _map(pycolmap, mapper, database, image_dir, sparse, threads, seed, tick)
+
+
 def write_position_priors(pycolmap, database: Path, names: list[str], positions: np.ndarray, sigma_m: float) -> None:
     """Each photo's recorded position (its GNSS tag, local metres) as a COLMAP pose prior."""
     db = _open_database(pycolmap, database)
@@ -239,14 +253,7 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     t = time.perf_counter()
     sparse = work_dir / "sparse"
     sparse.mkdir()
-    if mapper == "incremental":
-        with _stage(progress, "SfM mapping", total=len(names)) as tick:
-            recs = _map(pycolmap, mapper, database, image_dir, sparse, threads, seed, tick)
-    else:  # the global mapper reports nothing while it runs: its bar is its estimated time
-        estimate = global_mapping_seconds(len(names), threads)
-        with _stage(progress, "SfM mapping (time estimated)", total=estimate, unit="s") as tick, \
-                clock_bar(tick, estimate):
-            recs = _map(pycolmap, mapper, database, image_dir, sparse, threads, seed, tick)
+    recs = map_models(pycolmap, mapper, database, image_dir, sparse, threads, seed, len(names), progress)
     seconds["mapping"] = time.perf_counter() - t
     for k, rec in enumerate(sorted(recs.values(), key=lambda r: -r.num_reg_images())):
         (sparse / str(k)).mkdir(exist_ok=True)
