@@ -27,7 +27,8 @@ from coverplan.progress import Progress
 from coverplan.sfm.colmap import _aligned, require_pycolmap
 from coverplan.sfm.conditions import fly, get_conditions
 from coverplan.sfm.judge import judge_classes, judge_samples
-from coverplan.sfm.simulate import JUDGE_SPACING_M, simulate
+from coverplan.sfm.simulate import JUDGE_SPACING_M, photo_names, simulate
+from coverplan.shots.reconstructability import best_incidence, incidence_deg
 from coverplan.shots.visibility import imaging_pairs
 from reconstruction import CAMERA, GSD, SECURITY
 
@@ -44,18 +45,15 @@ def parts_of(points: np.ndarray) -> np.ndarray:
 
 
 def plan_views(route, scene, samples) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Per judge sample: views and squarest incidence (deg); per (camera, sample) pair: its camera and sample."""
+    """Per judge sample: views and squarest incidence (deg, inf unseen); per (camera, sample) pair: its
+    camera and sample."""
     rows = route.shots
     limits = view_limits(route, scene)
     cam, pt, _ = imaging_pairs(route.positions[rows], route.heading_deg[rows], route.pitch_deg[rows],
                                route.camera, samples.points, samples.normals, scene.rays, max_range=limits.d_opt,
                                max_incidence_deg=limits.max_incidence_deg)
-    ray = route.positions[rows][cam] - samples.points[pt]
-    ray /= np.linalg.norm(ray, axis=1, keepdims=True)
-    inc = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", ray, samples.normals[pt]), -1.0, 1.0)))
-    best = np.full(len(samples), 90.0)
-    np.minimum.at(best, pt, inc)
-    return np.bincount(pt, minlength=len(samples)), best, cam, pt
+    inc = incidence_deg(cam, pt, route.positions[rows], samples.points, samples.normals)
+    return np.bincount(pt, minlength=len(samples)), best_incidence(pt, inc, len(samples)), cam, pt
 
 
 def judge_draw(folder: Path, route, conditions: str, seed: int, samples) -> tuple[int, np.ndarray]:
@@ -65,7 +63,7 @@ def judge_draw(folder: Path, route, conditions: str, seed: int, samples) -> tupl
     sparse = folder / "colmap" / "sparse"
     recs = [pycolmap.Reconstruction(m) for m in sorted(sparse.iterdir())]
     best = max(recs, key=lambda r: r.num_reg_images())
-    names = [f"shot_{k:04d}.png" for k in range(len(route.shots))]
+    names = photo_names(len(route.shots))
     flown = fly(route, get_conditions(conditions), seed=seed)
     model = _aligned(pycolmap, best, {n: i for i, n in enumerate(names)}, flown.positions)
     if not model.aligned or not len(model.points):

@@ -151,6 +151,7 @@ def test_global_mapper_rebuilds_the_same_flight(field, house, tmp_path):
     """COLMAP's global mapper (``--mapper global``) on the field draw's own matches: every photo
     in one model, aligned to where the photos were taken, the house rebuilt to the bar."""
     from coverplan.sfm.colmap import _aligned, global_mapping_seconds, map_models
+    from coverplan.sfm.simulate import photo_names
     from coverplan.sfm.conditions import fly, get_conditions
     from coverplan.sfm.judge import judge_samples, reconstructed_surface
     sim, out = field
@@ -158,7 +159,7 @@ def test_global_mapper_rebuilds_the_same_flight(field, house, tmp_path):
     sparse = tmp_path / "sparse"
     sparse.mkdir()
     log = StageLog()
-    names = [f"shot_{k:04d}.png" for k in range(len(route.shots))]
+    names = photo_names(len(route.shots))
     recs = map_models(pycolmap, "global", out / "colmap" / "database.db", out / "images", sparse, -1, FIELD_SEED,
                       len(names), progress=log)
     # Its bar runs on the estimated time, and is full when the mapper returns.

@@ -45,6 +45,11 @@ SURFACE_MIN = 95.0
 CLASS_MIN = 90.0
 
 
+def photo_names(n: int) -> list[str]:
+    """The file names of a simulated flight's ``n`` photos, in route order (COLMAP's image names)."""
+    return [f"shot_{k:04d}.png" for k in range(n)]
+
+
 @dataclass
 class Simulation:
     """What SfM made of a route's photos."""
@@ -290,7 +295,7 @@ def _simulate_once(route, scene, out_dir: Path, cond, texture: str, matching: st
                                  facades=cond.facades, seed=seed)
     else:
         renderer = ideal_renderer(scene, photo, d_opt, route.security, seed=seed)
-    names = [f"shot_{k:04d}.png" for k in range(len(shots))]
+    names = photo_names(len(shots))
     t = time.perf_counter()
     from PIL import Image  # the sfm extra
 
