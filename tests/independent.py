@@ -76,3 +76,22 @@ def polyline_min_distance(positions, meshes, step: float) -> float:
         dist = np.where(inside, 0.0, dist)
         best = min(best, float(dist.min()))
     return best
+
+
+def frame_share(position, heading, pitch, camera, mesh, normal, facing_deg: float, grid=(48, 32)) -> float:
+    """Share of a shot's frame whose first hit on ``mesh`` faces within ``facing_deg`` of
+    ``normal`` (trimesh's pure-numpy ray tester, a pixel grid finer than the planner's)."""
+    from trimesh.ray.ray_triangle import RayMeshIntersector
+    right, up, forward = camera_frame(heading, pitch)
+    gx, gy = grid
+    u = camera.tan_half_hfov * ((np.arange(gx) + 0.5) / gx * 2 - 1)
+    v = camera.tan_half_vfov * ((np.arange(gy) + 0.5) / gy * 2 - 1)
+    uu, vv = (a.ravel() for a in np.meshgrid(u, v))
+    d = forward[None] + uu[:, None] * right[None] - vv[:, None] * up[None]
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    o = np.repeat(np.asarray(position, float)[None], len(d), axis=0)
+    tri, ray = RayMeshIntersector(mesh).intersects_id(o, d, multiple_hits=False, return_locations=False)
+    n = mesh.face_normals[tri]
+    n = n * -np.sign((n * d[ray]).sum(axis=1))[:, None]
+    facing = n @ np.asarray(normal, float) >= np.cos(np.radians(facing_deg))
+    return float(facing.sum()) / len(d)

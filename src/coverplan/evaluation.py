@@ -15,6 +15,7 @@ from coverplan.errors import ParameterError
 from coverplan.flight.passing import flown_path
 from coverplan.flight.route import Route
 from coverplan.geometry.clearance import ClearanceModel
+from coverplan.shots.framing import FRAMED_VIEWS_JUDGED, frame_fill, framed_view_matrix, view_fill
 from coverplan.shots.reachability import ViewLimits, reachability, scene_limits
 from coverplan.shots.reconstructability import (
     SHARP_INCIDENCE_DEG,
@@ -325,6 +326,14 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
     cam, pt, _rng = ev.pairs
     best = best_incidence(pt, incidence_deg(cam, pt, shot_pos, samples.points, samples.normals), len(samples))
     sharp = ev.covered & reach & (best <= SHARP_INCIDENCE_DEG)
+    # Framed views (framing.py): judged against the best the route's own photos give where no
+    # photo fills 25 %, so this is the rule as the flight meets it, not what any viewpoint could.
+    photos = photo_poses(route)
+    inc = incidence_deg(cam, pt, shot_pos, samples.points, samples.normals)
+    fill = view_fill(frame_fill(scene, *photos, route.camera), cam, pt, samples.normals)
+    framed_n = np.asarray(framed_view_matrix(cam, pt, fill, inc, len(shot_pos), len(samples)).sum(axis=0)).ravel()
+    framed_want = int(route.params.get("framed_views") or FRAMED_VIEWS_JUDGED)
+    framed = ev.covered & reach & (framed_n >= framed_want)
     by_class, sharp_by_class = {}, {}
     for k, name in enumerate(CLASS_NAMES):
         sel = (samples.kind == k) & reach
@@ -347,6 +356,8 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
         "coverage_by_class_pct": by_class,
         "sharp_view_pct": 100.0 * float(area[sharp].sum()) / covered_area if covered_area > 0 else 0.0,
         "sharp_view_by_class_pct": sharp_by_class,
+        "framed_views_judged": framed_want,
+        "framed_view_pct": 100.0 * float(area[framed].sum()) / covered_area if covered_area > 0 else 0.0,
         "best_incidence_deg": _stats(best[ev.covered & reach]),
         "uncovered_reachable_area_m2": float(area[missed].sum()),
         "uncovered_reachable_samples": int(missed.sum()),
@@ -490,6 +501,9 @@ def format_metrics(m: dict) -> str:
         ("coverage of reachable", f"{m['coverage_pct']:.2f} % (checked every {m['sample_spacing_m']:.2f} m)"),
         (f"seen within {SHARP_INCIDENCE_DEG:g} deg", f"{m['sharp_view_pct']:.1f} % of the covered surface"
                                + _worst_class(m.get("sharp_view_by_class_pct", {}))),
+        *([(f"framed by {m['framed_views_judged']} views", f"{m['framed_view_pct']:.1f} % of the covered surface "
+             "(its face fills 25 % of the frame, or most of the best photo's, within 50 deg)")]
+          if "framed_view_pct" in m else []),
         ("reachable surface", f"{m['reachable_area_m2']:,.1f} of {m['surface_area_m2']:,.1f} m2"),
         ("uncovered reachable", f"{m['uncovered_reachable_area_m2']:,.1f} m2 ({m['uncovered_reachable_samples']} samples)"),
         ("unreachable", f"{m['unreachable_area_m2']:,.1f} m2 ({m['unreachable_samples']} samples)"),

@@ -330,6 +330,7 @@ def _match_rule(args):
 
     given = {k: v for k, v in (("max_pair_deg", args.max_pair_deg), ("min_overlap", args.min_overlap),
                                ("min_neighbours", args.min_neighbours), ("sharp_views", args.sharp_views),
+                               ("framed_views", args.framed_views),
                                ("braced", None if args.links is None else args.links == "braced"))
              if v is not None}
     if not given:
@@ -497,6 +498,10 @@ def _add_planning_args(p):
     p.add_argument("--sharp-views", type=int, default=None, metavar="N",
                    help="sfm rule: views per surface point within 35 deg of its normal, or as near as any "
                         "safe viewpoint gets plus 5 deg (default 1; 0: none asked)")
+    p.add_argument("--framed-views", type=int, default=None, metavar="N",
+                   help="sfm rule: views per surface point whose frame its face fills (25 %%, or most of the best "
+                        "any safe viewpoint gives), within 50 deg of its normal; towers and spires get views from "
+                        "closer in (default 2; 0: none asked, the rule before December 2026)")
     p.add_argument("--max-incidence-deg", type=float, default=70.0)
     p.add_argument("--min-altitude", type=float, default=None, metavar="M",
                    help="lowest flight height above the ground (default: the security distance)")

@@ -70,6 +70,7 @@ from coverplan.shots.reconstructability import (
     SHARP_INCIDENCE_DEG,
     MatchRule,
     add_sharp_views,
+    add_wanted_views,
     best_incidence,
     candidate_links,
     connect_shots,
@@ -77,6 +78,13 @@ from coverplan.shots.reconstructability import (
     incidence_deg,
     sharp_view_matrix,
     shot_links,
+)
+from coverplan.shots.framing import (
+    CLOSE_SHARE,
+    frame_fill,
+    framed_view_matrix,
+    short_of_framing,
+    view_fill,
 )
 from coverplan.shots.redundancy import CheckViews, SharpViews, drop_redundant
 from coverplan.shots.relink import relink_on_check
@@ -179,6 +187,7 @@ class Problem:
     links_job: Future | None
     lattice_job: Future | None
     fixed: np.ndarray  # (k,) candidate indices of photos already taken (settings.existing)
+    fill: np.ndarray  # (candidates, N_BINS) frame_fill of the candidates (framing.py)
 
 
 def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Problem:
@@ -211,10 +220,26 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
                                setup.max_pair_deg) & reach.reachable
         cover.add_candidates(keep_safe(scene, from_probes(scene, samples, np.flatnonzero(needy), limits),
                                        limits, setup.extra_clearance))
+        fill = _fill_of(scene, cover.cands, setup)
+        if setup.match is not None and setup.match.framed_views:
+            # Faces that no candidate at the standoff frames well (towers, chimneys, spires) get
+            # candidates closer in along their normals.
+            cam, pt, _ = cover.pairs
+            inc = incidence_deg(cam, pt, cover.cands.positions, samples.points, samples.normals)
+            short = short_of_framing(cam, pt, view_fill(fill, cam, pt, samples.normals), inc, len(samples),
+                                     setup.match.framed_views) & reach.reachable
+            if short.any():
+                near = max(setup.standoff * CLOSE_SHARE, (limits.security + setup.extra_clearance) * 1.05)
+                close = keep_safe(scene, along_normals(samples.subset(short), limits, camera, near), limits,
+                                  setup.extra_clearance)
+                cover.add_candidates(close)
+                fill = np.vstack([fill, _fill_of(scene, close, setup)])
         fixed = np.zeros(0, dtype=np.int64)
         if settings.existing is not None:  # taken, not flown: no safety or gimbal test
             base = len(cover.cands)
-            cover.add_candidates(settings.existing.candidates())
+            existing = settings.existing.candidates()
+            cover.add_candidates(existing)
+            fill = np.vstack([fill, _fill_of(scene, existing, setup)])
             fixed = np.arange(base, len(cover.cands))
     vis, rays = cover.matrices()
     reach = reach.with_witnesses(np.bincount(cover.pairs[1], minlength=len(samples)) > 0)
@@ -229,7 +254,7 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
     if h == _lattice_spacing(scene, np.zeros((0, 3)), setup):
         lattice_job = pool.submit(build_lattice, scene, limits, lattice_box(scene, limits, np.zeros((0, 3)), h),
                                   setup.start, margin=setup.extra_clearance, spacing=h)
-    return Problem(samples, reach, cover, vis, rays, fine_job, links_job, lattice_job, fixed)
+    return Problem(samples, reach, cover, vis, rays, fine_job, links_job, lattice_job, fixed, fill)
 
 
 @dataclass(frozen=True)
@@ -239,6 +264,7 @@ class Selection:
     chosen: np.ndarray  # (k,) int candidate indices
     covering: int
     sharpening: int
+    framing: int
     lp_bound: float | None
 
 
@@ -258,6 +284,14 @@ def select_shots(problem: Problem, setup: Setup, progress: Progress) -> Selectio
             inc = incidence_deg(cam, pt, cands.positions, samples.points, samples.normals)
             chosen = add_sharp_views(cam, pt, inc, len(cands), samples.area, chosen, views=match.sharp_views)
     sharpening = len(chosen) - covering
+    if match is not None and match.framed_views and len(chosen):
+        with progress.stage("framed views for SfM"):
+            cam, pt, _ = problem.cover.pairs
+            inc = incidence_deg(cam, pt, cands.positions, samples.points, samples.normals)
+            framed = framed_view_matrix(cam, pt, view_fill(problem.fill, cam, pt, samples.normals), inc, len(cands),
+                                        len(samples))
+            chosen = add_wanted_views(framed, samples.area, chosen, views=match.framed_views)
+    framing = len(chosen) - covering - sharpening
     if match is not None and len(chosen):
         with progress.stage("linking shots for SfM"):
             chosen = connect_shots(problem.vis, cands.positions, samples.points, chosen, match,
@@ -266,7 +300,7 @@ def select_shots(problem: Problem, setup: Setup, progress: Progress) -> Selectio
         reason = problem.reach.reason
         raise PlanningError("no safe viewpoint can image any part of the target: "
                             + (reason[0] if len(reason) and reason[0] else "check the security distance and GSD"))
-    return Selection(chosen, covering, sharpening, selection.lp_bound)
+    return Selection(chosen, covering, sharpening, framing, selection.lp_bound)
 
 
 @dataclass(frozen=True)
@@ -323,7 +357,10 @@ def close_gaps(problem: Problem, selection: Selection, setup: Setup, progress: P
                 check = closer.check(chosen)
         complete = len(chosen)
         if match is not None:
-            chosen = _drop_redundant(cover, closer, chosen, check.covered, coarse, vis, match, keep=problem.fixed)
+            fill = np.vstack([problem.fill, _fill_of(cover.scene, cover.cands.subset(np.arange(len(problem.fill),
+                                                                                     len(cover.cands))), setup)])
+            chosen = _drop_redundant(cover, closer, chosen, check.covered, coarse, vis, match, fill,
+                                     keep=problem.fixed)
             check = closer.kept(check, chosen)
         dropped = complete - len(chosen)
         check_links = 0
@@ -438,6 +475,7 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
     if match is not None:
         params.update({"max_pair_deg": match.max_pair_deg, "min_overlap": match.min_overlap,
                        "min_neighbours": match.min_neighbours, "sharp_views": match.sharp_views,
+                       "framed_views": match.framed_views,
                        "braced_links": match.braced})
     _final_check(route, scene, limits)
     through = None
@@ -454,7 +492,9 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
         "shots": int(route.shot.sum()),
         "selected_views": int(len(chosen)),
         "sharp_view_shots": int(selection.sharpening + gaps.fine_sharp),
-        "linking_shots": int(max(picked - selection.covering - selection.sharpening, 0) + gaps.check_links),
+        "framed_view_shots": int(selection.framing),
+        "linking_shots": int(max(picked - selection.covering - selection.sharpening - selection.framing, 0)
+                             + gaps.check_links),
         "repair_shots": int(max(gaps.complete - picked - gaps.fine_sharp, 0)),
         "redundant_shots_dropped": int(gaps.dropped),
         "check_link_shots": int(gaps.check_links),  # of the linking shots: those the check samples' links asked
@@ -523,10 +563,11 @@ def _link_new_shots(vis, positions, points, chosen, before: int, match: MatchRul
 
 
 def _drop_redundant(cover: CoverProblem, closer: GapCloser, chosen: np.ndarray, covered: np.ndarray,
-                    coarse: int, vis, match: MatchRule, keep=None) -> np.ndarray:
-    """``drop_redundant`` keeping the fine check's coverage, the links between the shots and the
-    sharp views: on the planner's samples as the sharp-view stage asked them, on the check
-    samples a view as square as 35 deg or as the plan's best (docs/reconstruction.md)."""
+                    coarse: int, vis, match: MatchRule, fill: np.ndarray, keep=None) -> np.ndarray:
+    """``drop_redundant`` keeping the fine check's coverage, the links between the shots, the
+    sharp views (on the planner's samples as the sharp-view stage asked them, on the check
+    samples a view as square as 35 deg or as the plan's best, docs/reconstruction.md) and the
+    framed views on the planner's samples. ``fill``: ``frame_fill`` of every candidate."""
     n_cands = len(cover.cands)
     who, at = closer.firm_views()
     mine = np.isin(who, chosen)
@@ -543,8 +584,22 @@ def _drop_redundant(cover: CoverProblem, closer: GapCloser, chosen: np.ndarray, 
         inc = incidence_deg(who, at, positions, fine.points, fine.normals)
         best = np.maximum(best_incidence(at, inc, len(fine)), SHARP_INCIDENCE_DEG)
         sharp.append(SharpViews(sharp_view_matrix(who, at, inc, n_cands, len(fine), targets=best), match.sharp_views))
+    if match.framed_views:
+        cam, pt, _ = cover.pairs
+        own = pt < coarse
+        cam, pt = cam[own], pt[own]
+        normals = cover.samples.normals
+        inc = incidence_deg(cam, pt, positions, cover.samples.points, normals)
+        sharp.append(SharpViews(framed_view_matrix(cam, pt, view_fill(fill, cam, pt, normals), inc, n_cands, coarse),
+                                match.framed_views))
     links = shot_links(vis[chosen][:, :coarse], positions[chosen], cover.samples.points[:coarse], match)
     return drop_redundant(chosen, views, sharp, links, match.min_neighbours, keep=keep)
+
+
+def _fill_of(scene, cands: Candidates, setup: Setup) -> np.ndarray:
+    """``frame_fill`` of candidates, framed by the camera asked for (not the one narrowed by the
+    pose margin: exposure and features come from the whole frame)."""
+    return frame_fill(scene, cands.positions, cands.heading_deg, cands.pitch_deg, setup.asked_camera)
 
 
 def _short_samples(pairs, positions, samples, min_views, min_triangulation_deg, max_pair_deg=None) -> np.ndarray:

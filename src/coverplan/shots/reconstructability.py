@@ -34,6 +34,7 @@ class MatchRule:
     min_overlap: float = 0.3
     min_neighbours: int = 2
     sharp_views: int = 1  # views per sample at its sharp incidence (``sharp_targets``); 0: none asked
+    framed_views: int = 2  # views per sample that its face fills (framing.py); 0: none asked
     braced: bool = True  # no photo the links hang on (bracing.py); False: one piece is enough
 
     def __post_init__(self):
@@ -48,6 +49,9 @@ class MatchRule:
         if int(self.sharp_views) != self.sharp_views or self.sharp_views < 0:
             raise ParameterError(f"sharp views per sample (--sharp-views) must be a whole number >= 0, "
                                  f"got {self.sharp_views!r}")
+        if int(self.framed_views) != self.framed_views or self.framed_views < 0:
+            raise ParameterError(f"framed views per sample (--framed-views) must be a whole number >= 0, "
+                                 f"got {self.framed_views!r}")
 
 
 def _link_matrix(shared, size_a, size_b, cx, cy, cz, pos_a, pos_b, rule: MatchRule) -> np.ndarray:
@@ -328,9 +332,19 @@ def add_sharp_views(cam: np.ndarray, pt: np.ndarray, incidence: np.ndarray, n_ca
                     chosen: np.ndarray, views: int = 1, min_gain_m2: float = 1.0) -> np.ndarray:
     """Add candidates to ``chosen`` until every sample has ``views`` views at its sharp
     incidence (``sharp_targets``) or no candidate adds ``min_gain_m2`` of surface that lacks
-    them. Greedy: each time the candidate giving most such surface a sharp view."""
-    n = len(area)
-    m = sharp_view_matrix(cam, pt, incidence, n_cands, n)
+    them (``add_wanted_views``)."""
+    m = sharp_view_matrix(cam, pt, incidence, n_cands, len(area))
+    return add_wanted_views(m, area, chosen, views, min_gain_m2)
+
+
+def add_wanted_views(m: sp.csr_matrix, area: np.ndarray, chosen: np.ndarray, views: int = 1,
+                     min_gain_m2: float = 1.0) -> np.ndarray:
+    """Add candidates to ``chosen`` until every sample has ``views`` of the views ``m``
+    (candidates x samples, 1 where the view is of the kind wanted) or no candidate adds
+    ``min_gain_m2`` of surface that lacks them. Greedy: each time the candidate giving most
+    such surface a wanted view. A sample is asked for no more than its candidates offer."""
+    m = sp.csr_matrix(m)
+    n_cands = m.shape[0]
     offered = np.asarray(m.sum(axis=0)).ravel()
     taken = np.zeros(n_cands, dtype=bool)
     taken[np.asarray(chosen, dtype=np.int64)] = True
