@@ -1,7 +1,7 @@
 """plan(): scene + camera + detail + security distance -> one safe flight covering the target.
 
 The stages (DESIGN.md's pipeline, :mod:`coverplan.planning.stages`): surface samples ->
-reachability -> candidate viewpoints -> visibility matrix -> view selection -> closing the
+reachability -> candidate viewpoints -> visibility matrix -> framing -> view selection -> closing the
 gaps -> flight graph -> tour -> legs -> Route.
 """
 

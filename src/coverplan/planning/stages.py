@@ -220,6 +220,7 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
                                setup.max_pair_deg) & reach.reachable
         cover.add_candidates(keep_safe(scene, from_probes(scene, samples, np.flatnonzero(needy), limits),
                                        limits, setup.extra_clearance))
+    with progress.stage("framing"):
         fill = _fill_of(scene, cover.cands, setup)
         if setup.match is not None and setup.match.framed_views:
             # Faces that no candidate at the standoff frames well (towers, chimneys, spires) get
@@ -234,8 +235,9 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
                                   setup.extra_clearance)
                 cover.add_candidates(close)
                 fill = np.vstack([fill, _fill_of(scene, close, setup)])
-        fixed = np.zeros(0, dtype=np.int64)
-        if settings.existing is not None:  # taken, not flown: no safety or gimbal test
+    fixed = np.zeros(0, dtype=np.int64)
+    if settings.existing is not None:  # taken, not flown: no safety or gimbal test
+        with progress.stage("photos already taken"):
             base = len(cover.cands)
             existing = settings.existing.candidates()
             cover.add_candidates(existing)

@@ -75,29 +75,28 @@ def frame_fill(scene, positions, heading_deg, pitch_deg, camera, grid: tuple[int
     gx, gy = grid
     u = np.tan(np.radians(camera.hfov_deg) / 2) * ((np.arange(gx) + 0.5) / gx * 2 - 1)
     v = np.tan(np.radians(camera.vfov_deg) / 2) * ((np.arange(gy) + 0.5) / gy * 2 - 1)
-    uu, vv = (a.ravel() for a in np.meshgrid(u, v))
-    right, up, forward = (np.asarray(a, dtype=float).reshape(-1, 3)
+    uu, vv = (a.ravel().astype(np.float32) for a in np.meshgrid(u, v))
+    right, up, forward = (np.asarray(a, dtype=np.float32).reshape(-1, 3)
                           for a in camera_axes(np.asarray(heading_deg, float), np.asarray(pitch_deg, float)))
+    # Every face's bin, seen from either side, looked up per hit (no per-hit search of the bins).
+    faces = [np.asarray(m.face_normals, dtype=float) for m in scene.meshes]
+    offset = np.concatenate([[0], np.cumsum([len(f) for f in faces])])
+    normal = np.vstack(faces).astype(np.float32)
+    out_bin, in_bin = (np.argmax(sign * normal @ bins.T, axis=1) for sign in (1.0, -1.0))
     target = np.zeros(len(scene.meshes), dtype=bool)
     target[list(scene.target_indices)] = True
-    normals = [np.asarray(m.face_normals, dtype=float) for m in scene.meshes]
     for lo in range(0, n, _CHUNK):
         hi = min(lo + _CHUNK, n)
         d = (forward[lo:hi, None] + uu[None, :, None] * right[lo:hi, None]
              - vv[None, :, None] * up[lo:hi, None]).reshape(-1, 3)
-        d /= np.linalg.norm(d, axis=1, keepdims=True)
         o = np.repeat(positions[lo:hi], len(uu), axis=0)
         _dist, mesh, face = scene.rays.first_hit(o, d)
         hit = np.flatnonzero(mesh >= 0)
         hit = hit[target[mesh[hit]]]
-        nrm = np.empty((len(hit), 3))
-        for m in np.unique(mesh[hit]):
-            sel = mesh[hit] == m
-            nrm[sel] = normals[m][face[hit[sel]]]
-        nrm *= -np.sign(np.einsum("ij,ij->i", nrm, d[hit]))[:, None]  # the side the camera sees
-        cam = hit // len(uu)
-        b = np.argmax(nrm @ bins.T, axis=1)
-        counts = np.bincount(cam * len(bins) + b, minlength=(hi - lo) * len(bins))
+        g = offset[mesh[hit]] + face[hit]
+        outward = np.einsum("ij,ij->i", normal[g], d[hit]) < 0  # the side the camera sees
+        b = np.where(outward, out_bin[g], in_bin[g])
+        counts = np.bincount((hit // len(uu)) * len(bins) + b, minlength=(hi - lo) * len(bins))
         out[lo:hi] = counts.reshape(hi - lo, len(bins)) / len(uu)
     return out
 
