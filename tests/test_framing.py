@@ -118,3 +118,13 @@ def test_narrow_tower_faces_get_framed_views_from_closer_in(tower_plans):
     dist = np.linalg.norm(framed.positions[framed.shots][:, None, :2] - points[None, :, :2], axis=2).min(axis=1)
     assert (dist < 0.8 * d_opt).any()
     assert polyline_min_distance(framed.positions, [p.mesh for p in scene.targets], 0.5) >= 3.0
+
+
+def test_the_evaluator_reports_the_framed_views(tower_plans):
+    from coverplan import evaluate
+    scene, framed, plain = tower_plans
+    got = evaluate(framed, scene).metrics
+    was = evaluate(plain, scene).metrics
+    assert got["framed_views_judged"] == 2 and was["framed_views_judged"] == 2  # "0" is judged by the default
+    assert got["framed_view_pct"] >= 99.0
+    assert was["framed_view_pct"] < got["framed_view_pct"] - 2.0, (was["framed_view_pct"], got["framed_view_pct"])
