@@ -110,8 +110,20 @@ def main(argv=None):
                          "median_views": float(np.median(views[sel])), "median_best_incidence_deg":
                          float(np.median(best[sel])), "worst_pct": min(pct), "median_pct": float(np.median(pct)),
                          "draw_pct": pct})
+    verdicts = []
+    for k, (n_reg, d) in enumerate(judged):
+        hit = d <= 0.2
+        by_class = {c: 100.0 * float(samples.area[hit & (classes == c)].sum() / samples.area[classes == c].sum())
+                    for c in sorted(set(classes))}
+        verdicts.append({"seed": args.seed + k, "registered": n_reg,
+                         "surface_02_pct": 100.0 * float(samples.area[hit].sum() / samples.area.sum()),
+                         "by_class_02_pct": by_class, "least_class": min(by_class, key=by_class.get)})
     print(f"chapel, {len(route.shots)} photos, {args.conditions} conditions, {args.texture} textures, "
           f"{args.draws} draws: photos in the largest model {[n for n, _d in judged]}")
+    for v in verdicts:
+        print(f"  seed {v['seed']}: {v['registered']}/{len(route.shots)} in the largest model, "
+              f"{v['surface_02_pct']:.1f} % within 0.2 m, least {v['least_class']} "
+              f"{v['by_class_02_pct'][v['least_class']]:.1f} %")
     print(table(rows, [("part", "part", ""), ("class", "class", ""), ("area_m2", "m2", ".0f"),
                        ("photos_seeing", "photos seeing it", "d"), ("median_views", "views", ".0f"),
                        ("median_best_incidence_deg", "squarest view deg", ".1f"),
@@ -119,7 +131,7 @@ def main(argv=None):
     path = write_json("tall_faces" + (f"_{args.tag}" if args.tag else ""), args.quick,
                       {"camera": CAMERA, "gsd_m": gsd, "security_m": SECURITY, "photos": int(len(route.shots)),
                        "conditions": args.conditions, "texture": args.texture, "draws": args.draws,
-                       "registered": [n for n, _d in judged], "rows": rows})
+                       "registered": [n for n, _d in judged], "verdicts": verdicts, "rows": rows})
     print(f"written {path}")
 
 
