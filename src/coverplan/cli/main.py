@@ -501,7 +501,7 @@ def _add_planning_args(p):
     p.add_argument("--framed-views", type=int, default=None, metavar="N",
                    help="sfm rule: views per surface point whose frame its face fills (25 %%, or most of the best "
                         "any safe viewpoint gives), within 50 deg of its normal; towers and spires get views from "
-                        "closer in (default 2; 0: none asked, the rule before December 2026)")
+                        "closer in (default 0: none asked; try 2 for towers and spires)")
     p.add_argument("--max-incidence-deg", type=float, default=70.0)
     p.add_argument("--min-altitude", type=float, default=None, metavar="M",
                    help="lowest flight height above the ground (default: the security distance)")

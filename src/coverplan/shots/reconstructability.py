@@ -34,7 +34,8 @@ class MatchRule:
     min_overlap: float = 0.3
     min_neighbours: int = 2
     sharp_views: int = 1  # views per sample at its sharp incidence (``sharp_targets``); 0: none asked
-    framed_views: int = 2  # views per sample that its face fills (framing.py); 0: none asked
+    framed_views: int = 0  # views per sample that its face fills (framing.py); 0: none asked (the default until
+    # field runs under the same suns show it helps: docs/reconstruction.md)
     braced: bool = True  # no photo the links hang on (bracing.py); False: one piece is enough
 
     def __post_init__(self):
