@@ -28,7 +28,7 @@ from coverplan.sfm.colmap import _aligned, require_pycolmap
 from coverplan.sfm.conditions import fly, get_conditions
 from coverplan.sfm.judge import judge_classes, judge_samples
 from coverplan.sfm.simulate import JUDGE_SPACING_M, photo_names, simulate
-from coverplan.shots.reconstructability import best_incidence, incidence_deg
+from coverplan.shots.reconstructability import MatchRule, best_incidence, incidence_deg
 from coverplan.shots.visibility import imaging_pairs
 from reconstruction import CAMERA, GSD, SECURITY
 
@@ -81,12 +81,14 @@ def main(argv=None):
     parser.add_argument("--width", type=int, default=1024)
     parser.add_argument("--from", dest="kept", default=None, help="judge the draws kept in this folder")
     parser.add_argument("--tag", default=None)
+    parser.add_argument("--framed-views", type=int, default=None, help="the planner's --framed-views (default its own)")
     args = parser.parse_args(argv)
     gsd = GSD
     if args.quick:  # a smoke run: a coarse plan, small photos, one draw
         gsd, args.width, args.draws, args.kept = 0.008, 320, 1, None
     scene = load_scene(MESHES / "chapel.obj")
-    route = plan(scene, get_camera(CAMERA), gsd=gsd, security=SECURITY)
+    match = None if args.framed_views is None else MatchRule(framed_views=args.framed_views)
+    route = plan(scene, get_camera(CAMERA), gsd=gsd, security=SECURITY, match=match)
     samples = judge_samples(scene, JUDGE_SPACING_M)
     classes = judge_classes(samples.normals, samples.kind)
     parts = parts_of(samples.points)
