@@ -187,7 +187,7 @@ class Problem:
     links_job: Future | None
     lattice_job: Future | None
     fixed: np.ndarray  # (k,) candidate indices of photos already taken (settings.existing)
-    fill: np.ndarray  # (candidates, N_BINS) frame_fill of the candidates (framing.py)
+    fill: np.ndarray  # (candidates, N_BINS) frame_fill of the candidates (framing.py); no columns without framed views
 
 
 def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Problem:
@@ -220,9 +220,11 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
                                setup.max_pair_deg) & reach.reachable
         cover.add_candidates(keep_safe(scene, from_probes(scene, samples, np.flatnonzero(needy), limits),
                                        limits, setup.extra_clearance))
-    with progress.stage("framing"):
-        fill = _fill_of(scene, cover.cands, setup)
-        if setup.match is not None and setup.match.framed_views:
+    framing = setup.match is not None and setup.match.framed_views > 0
+    fill = np.zeros((len(cover.cands), 0), dtype=np.float32)  # frame_fill's, when framed views are asked
+    if framing:
+        with progress.stage("framing"):
+            fill = _fill_of(scene, cover.cands, setup)
             # Faces that no candidate at the standoff frames well (towers, chimneys, spires) get
             # candidates closer in along their normals.
             cam, pt, _ = cover.pairs
@@ -241,7 +243,8 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
             base = len(cover.cands)
             existing = settings.existing.candidates()
             cover.add_candidates(existing)
-            fill = np.vstack([fill, _fill_of(scene, existing, setup)])
+            fill = np.vstack([fill, _fill_of(scene, existing, setup) if framing else
+                              np.zeros((len(existing), 0), dtype=np.float32)])
             fixed = np.arange(base, len(cover.cands))
     vis, rays = cover.matrices()
     reach = reach.with_witnesses(np.bincount(cover.pairs[1], minlength=len(samples)) > 0)
@@ -359,8 +362,10 @@ def close_gaps(problem: Problem, selection: Selection, setup: Setup, progress: P
                 check = closer.check(chosen)
         complete = len(chosen)
         if match is not None:
-            fill = np.vstack([problem.fill, _fill_of(cover.scene, cover.cands.subset(np.arange(len(problem.fill),
-                                                                                     len(cover.cands))), setup)])
+            fill = problem.fill
+            if match.framed_views:  # the repair's candidates too
+                added = cover.cands.subset(np.arange(len(fill), len(cover.cands)))
+                fill = np.vstack([fill, _fill_of(cover.scene, added, setup)])
             chosen = _drop_redundant(cover, closer, chosen, check.covered, coarse, vis, match, fill,
                                      keep=problem.fixed)
             check = closer.kept(check, chosen)
