@@ -91,7 +91,8 @@ def frame_fill(scene, positions, heading_deg, pitch_deg, camera, grid: tuple[int
              - vv[None, :, None] * up[lo:hi, None]).reshape(-1, 3)
         o = np.repeat(positions[lo:hi], len(uu), axis=0)
         _dist, mesh, face = scene.rays.first_hit(o, d)
-        hit = np.flatnonzero(mesh >= 0)
+        # The ray caster holds the terrain's sheet after the scene's meshes: never target surface.
+        hit = np.flatnonzero((mesh >= 0) & (mesh < len(scene.meshes)))
         hit = hit[target[mesh[hit]]]
         g = offset[mesh[hit]] + face[hit]
         outward = np.einsum("ij,ij->i", normal[g], d[hit]) < 0  # the side the camera sees
