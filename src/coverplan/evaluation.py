@@ -291,7 +291,8 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
     reachable_area = float(area[reach].sum())
     covered_area = float(area[ev.covered & reach].sum())
     shots = route.shots
-    shot_pos = photo_poses(route)[0]
+    photos = photo_poses(route)
+    shot_pos = photos[0]
     total_area = samples.total_area
     security = route.security
     tol = 1e-6 * max(1.0, security)
@@ -324,12 +325,11 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
     # Sharp views (reconstructability.py): what SfM rebuilds depends on how squarely the
     # best photo sees the surface, so it is reported beside the view count.
     cam, pt, _rng = ev.pairs
-    best = best_incidence(pt, incidence_deg(cam, pt, shot_pos, samples.points, samples.normals), len(samples))
+    inc = incidence_deg(cam, pt, shot_pos, samples.points, samples.normals)
+    best = best_incidence(pt, inc, len(samples))
     sharp = ev.covered & reach & (best <= SHARP_INCIDENCE_DEG)
     # Framed views (framing.py): judged against the best the route's own photos give where no
     # photo fills 25 %, so this is the rule as the flight meets it, not what any viewpoint could.
-    photos = photo_poses(route)
-    inc = incidence_deg(cam, pt, shot_pos, samples.points, samples.normals)
     fill = view_fill(frame_fill(scene, *photos, route.camera), cam, pt, samples.normals)
     framed_n = np.asarray(framed_view_matrix(cam, pt, fill, inc, len(shot_pos), len(samples)).sum(axis=0)).ravel()
     framed_want = int(route.params.get("framed_views") or FRAMED_VIEWS_JUDGED)

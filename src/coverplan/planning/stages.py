@@ -283,16 +283,16 @@ def select_shots(problem: Problem, setup: Setup, progress: Progress) -> Selectio
     chosen = selection.chosen
     covering = len(chosen)
     samples, cands = problem.samples, problem.cover.cands
+    cam, pt, _ = problem.cover.pairs
+    inc = None  # the views' incidences, for the sharp and framed views
+    if match is not None and (match.sharp_views or match.framed_views) and len(chosen):
+        inc = incidence_deg(cam, pt, cands.positions, samples.points, samples.normals)
     if match is not None and match.sharp_views and len(chosen):
         with progress.stage("sharp views for SfM"):
-            cam, pt, _ = problem.cover.pairs
-            inc = incidence_deg(cam, pt, cands.positions, samples.points, samples.normals)
             chosen = add_sharp_views(cam, pt, inc, len(cands), samples.area, chosen, views=match.sharp_views)
     sharpening = len(chosen) - covering
     if match is not None and match.framed_views and len(chosen):
         with progress.stage("framed views for SfM"):
-            cam, pt, _ = problem.cover.pairs
-            inc = incidence_deg(cam, pt, cands.positions, samples.points, samples.normals)
             framed = framed_view_matrix(cam, pt, view_fill(problem.fill, cam, pt, samples.normals), inc, len(cands),
                                         len(samples))
             chosen = add_wanted_views(framed, samples.area, chosen, views=match.framed_views)
