@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import tempfile
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -81,6 +82,8 @@ def main(argv=None):
     parser.add_argument("--width", type=int, default=1024)
     parser.add_argument("--from", dest="kept", default=None, help="judge the draws kept in this folder")
     parser.add_argument("--tag", default=None)
+    parser.add_argument("--metering", default="center", choices=["center", "average"],
+                        help="the rendered camera's auto exposure (default center, as DJI's cameras meter)")
     parser.add_argument("--framed-views", type=int, default=None, help="the planner's --framed-views (default its own)")
     args = parser.parse_args(argv)
     gsd = GSD
@@ -96,7 +99,8 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(args.kept) if args.kept else Path(tmp) / "chapel"
         if not args.kept:
-            simulate(route, scene, out, width=args.width, conditions=args.conditions, draws=args.draws,
+            cond = replace(get_conditions(args.conditions), metering=args.metering)
+            simulate(route, scene, out, width=args.width, conditions=cond, draws=args.draws,
                      texture=args.texture, seed=args.seed, progress=Progress(verbose=True))
         folders = [out] if args.draws == 1 else [out / f"draw-{k + 1}" for k in range(args.draws)]
         judged = [judge_draw(f, route, args.conditions, args.seed + k, samples) for k, f in enumerate(folders)]
@@ -132,7 +136,8 @@ def main(argv=None):
                        ("worst_pct", "worst @0.2 m %", ".1f"), ("median_pct", "median @0.2 m %", ".1f")]))
     path = write_json("tall_faces" + (f"_{args.tag}" if args.tag else ""), args.quick,
                       {"camera": CAMERA, "gsd_m": gsd, "security_m": SECURITY, "photos": int(len(route.shots)),
-                       "conditions": args.conditions, "texture": args.texture, "draws": args.draws,
+                       "conditions": args.conditions, "metering": args.metering, "texture": args.texture,
+                       "draws": args.draws,
                        "registered": [n for n, _d in judged], "verdicts": verdicts, "rows": rows})
     print(f"written {path}")
 

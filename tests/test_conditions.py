@@ -218,3 +218,30 @@ def test_flights_of_one_scene_drawn_with_one_seed_fly_under_the_same_sun():
         assert np.allclose(a.sun[0], b.sun[0], atol=0.01)  # the same sun at take-off (it moves 0.004 deg/s)
     assert not np.allclose(fly(few, get_conditions("field"), seed=0).sun[0],
                            fly(few, get_conditions("field"), seed=1).sun[0])
+
+
+def test_centre_weighted_metering_exposes_a_narrow_face_against_the_sky():
+    """The chapel's tower seen from the west fills a narrow column of the frame, between sky and
+    sunlit ground; its face is in shade. Metered centre-weighted (as DJI's cameras meter by
+    default) the face comes out brighter than metered on the whole frame, and near mid grey."""
+    scene = load_scene(MESHES / "chapel.obj")
+    cam = render.PhotoCamera.of(get_camera("phantom4pro"), 240)
+    pos, heading, pitch = np.array([25.0 - 11.5 - 14.0, 25.0, 17.0]), 90.0, 0.0  # facing east, at the tower
+    sun = np.array([0.8, 0.0, 0.6])  # from the east: the west face is in shade
+    grey = {}
+    for metering in render.METERING:
+        r = render.FieldRenderer(scene, cam, 40.0, seed=1, metering=metering)
+        img, _ = r.render_flown(pos, heading, pitch, sun, 1.0, 1.0, np.zeros(3), 1 / 500, None)
+        dirs = cam.rays(heading, pitch)
+        _d, mesh, face = r.rays.first_hit(np.broadcast_to(pos, dirs.shape), dirs)
+        normal = r.normals[0][np.clip(face, 0, None)]
+        on_face = (mesh == 0) & (normal[:, 0] < -0.9)  # the tower's west face
+        assert 0.05 < on_face.mean() < 0.5  # a narrow part of the frame
+        grey[metering] = float(img.ravel()[on_face].mean())
+    assert grey["center"] > grey["average"] + 15
+    mid = 255 * render.MID_GREY ** (1 / render.GAMMA)
+    assert abs(grey["center"] - mid) < abs(grey["average"] - mid)
+    w = render.metering_weights(cam.height, cam.width)
+    assert w.sum() == pytest.approx(1.0) and w.reshape(cam.height, cam.width)[cam.height // 2, cam.width // 2] == w.max()
+    with pytest.raises(Exception, match="unknown metering"):
+        render.metering_weights(4, 6, "spot")

@@ -212,6 +212,26 @@ MID_GREY = 0.18
 READ_NOISE = 1e-3  # linear, of full scale
 SHOT_NOISE = 6e-5  # variance per unit of linear signal
 GAMMA = 2.2
+# DJI's cameras meter centre-weighted unless told otherwise (the Mobile SDK's CameraMeteringMode
+# defaults to Center). Its weights are not published; assumed here: three quarters of the weight
+# on a central disc 0.4 of the frame's height across, the rest fading over the frame.
+METERING = ("center", "average")
+_CENTRE_DISC = 0.4
+_CENTRE_SHARE = 0.75
+
+
+def metering_weights(height: int, width: int, metering: str = "center") -> np.ndarray:
+    """(height * width,) float weights, summing to 1, with which auto exposure averages a frame."""
+    if metering not in METERING:
+        raise ParameterError(f"unknown metering {metering!r}; choose one of {', '.join(METERING)}")
+    if metering == "average":
+        return np.full(height * width, 1.0 / (height * width))
+    y, x = np.mgrid[0:height, 0:width]
+    r2 = ((x + 0.5 - width / 2.0) ** 2 + (y + 0.5 - height / 2.0) ** 2) / float(height) ** 2
+    # A Gaussian with _CENTRE_SHARE of its mass within radius _CENTRE_DISC / 2.
+    sigma2 = (_CENTRE_DISC / 2.0) ** 2 / (-2.0 * np.log(1.0 - _CENTRE_SHARE))
+    w = np.exp(-0.5 * r2 / sigma2).ravel()
+    return w / w.sum()
 
 
 def pixel_footprint(distance: np.ndarray, cos_incidence: np.ndarray, fx: float) -> np.ndarray:
@@ -353,8 +373,9 @@ class FieldRenderer(PhotoRenderer):
     """Photos under field conditions: physical textures, the drawn light, camera effects."""
 
     def __init__(self, scene, photo: PhotoCamera, ground_reach: float, family: str = "noise",
-                 facades: bool = False, seed: int = 0):
+                 facades: bool = False, seed: int = 0, metering: str = "center"):
         self.family = check_texture(family)
+        self.meter = metering_weights(photo.height, photo.width, metering)
         super().__init__(scene, photo, finest_texture_m=FINEST_M, ground_reach=ground_reach, seed=seed)
         self.facades = bool(facades)
         self.ground_z = float(scene.ground_z)
@@ -419,8 +440,8 @@ class FieldRenderer(PhotoRenderer):
             img[hit] = radiance
             seen = pts[::every]
         img = img.reshape(self.photo.height, self.photo.width)
-        # Auto exposure: the frame's mean brought to mid grey, give or take the meter's whim.
-        img *= exposure * MID_GREY / max(float(img.mean()), 1e-6)
+        # Auto exposure: the metered mean brought to mid grey, give or take the meter's whim.
+        img *= exposure * MID_GREY / max(float(self.meter @ img.ravel()), 1e-6)
         img = _motion_blur(img, velocity, shutter_s, heading_deg, pitch_deg, dist if len(hit) else None,
                            self.photo.fx)
         if rng is not None:

@@ -292,7 +292,7 @@ def _simulate_once(route, scene, out_dir: Path, cond, texture: str, matching: st
     flown = fly(route, cond, seed=seed)
     if cond.physical_textures:
         renderer = FieldRenderer(scene, photo, ground_reach=ground_reach(d_opt, route.security), family=texture,
-                                 facades=cond.facades, seed=seed)
+                                 facades=cond.facades, seed=seed, metering=cond.metering)
     else:
         renderer = ideal_renderer(scene, photo, d_opt, route.security, seed=seed)
     names = photo_names(len(shots))
