@@ -81,6 +81,7 @@ def main(argv=None):
     parser.add_argument("--texture", default="noise", choices=["noise", "cells"])
     parser.add_argument("--width", type=int, default=1024)
     parser.add_argument("--from", dest="kept", default=None, help="judge the draws kept in this folder")
+    parser.add_argument("--keep", default=None, help="simulate into this folder and keep it (for --from)")
     parser.add_argument("--tag", default=None)
     parser.add_argument("--metering", default="center", choices=["center", "average"],
                         help="the rendered camera's auto exposure (default center, as DJI's cameras meter)")
@@ -97,7 +98,7 @@ def main(argv=None):
     parts = parts_of(samples.points)
     views, best, cam, pt = plan_views(route, scene, samples)
     with tempfile.TemporaryDirectory() as tmp:
-        out = Path(args.kept) if args.kept else Path(tmp) / "chapel"
+        out = Path(args.kept or args.keep or Path(tmp) / "chapel")
         if not args.kept:
             cond = replace(get_conditions(args.conditions), metering=args.metering)
             simulate(route, scene, out, width=args.width, conditions=cond, draws=args.draws,
