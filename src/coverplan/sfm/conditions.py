@@ -27,7 +27,7 @@ from coverplan.equipment.flighttime import FlightModel
 from coverplan.errors import ParameterError
 from coverplan.flight.passing import route_leg_seconds, travel_directions
 from coverplan.sfm.render import _SUN as FIXED_SUN
-from coverplan.sfm.render import METERING
+from coverplan.sfm.render import check_metering
 
 BIAS_CORRELATION_S = 300.0  # the flight-wide error's drift: correlated over about 5 minutes
 BATTERY_SWAP_S = 300.0  # between two battery flights
@@ -47,8 +47,7 @@ class Conditions:
     metering: str = "center"  # the camera's auto exposure: "center" (DJI's default) or "average"
 
     def __post_init__(self):
-        if self.metering not in METERING:
-            raise ParameterError(f"unknown metering {self.metering!r}; choose one of {', '.join(METERING)}")
+        check_metering(self.metering)
 
     @property
     def physical_textures(self) -> bool:

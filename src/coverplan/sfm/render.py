@@ -220,11 +220,16 @@ _CENTRE_DISC = 0.4
 _CENTRE_SHARE = 0.75
 
 
-def metering_weights(height: int, width: int, metering: str = "center") -> np.ndarray:
-    """(height * width,) float weights, summing to 1, with which auto exposure averages a frame."""
+def check_metering(metering: str) -> str:
+    """``metering`` if it names a metering mode, else a one-line ParameterError."""
     if metering not in METERING:
         raise ParameterError(f"unknown metering {metering!r}; choose one of {', '.join(METERING)}")
-    if metering == "average":
+    return metering
+
+
+def metering_weights(height: int, width: int, metering: str = "center") -> np.ndarray:
+    """(height * width,) float weights, summing to 1, with which auto exposure averages a frame."""
+    if check_metering(metering) == "average":
         return np.full(height * width, 1.0 / (height * width))
     y, x = np.mgrid[0:height, 0:width]
     r2 = ((x + 0.5 - width / 2.0) ** 2 + (y + 0.5 - height / 2.0) ** 2) / float(height) ** 2
