@@ -95,3 +95,28 @@ def frame_share(position, heading, pitch, camera, mesh, normal, facing_deg: floa
     n = n * -np.sign((n * d[ray]).sum(axis=1))[:, None]
     facing = n @ np.asarray(normal, float) >= np.cos(np.radians(facing_deg))
     return float(facing.sum()) / len(d)
+
+
+def per_sample_links(positions, cam, pt, points, normals, max_pair_deg, max_incidence_deg, min_overlap):
+    """Which photos link, judged sample by sample: a shared sample counts when both photos see
+    it within ``max_incidence_deg`` of its normal and their rays meet at most ``max_pair_deg``
+    apart; two photos link when the counted samples are ``min_overlap`` of the smaller footprint.
+    Written straight from that definition: every pair of views of every sample, one by one."""
+    n = len(positions)
+    views = {}
+    for c, p in zip(cam.tolist(), pt.tolist()):
+        views.setdefault(p, []).append(c)
+    size = np.bincount(cam, minlength=n)
+    count = np.zeros((n, n), dtype=np.int64)
+    cos_pair, cos_inc = np.cos(np.radians(max_pair_deg)), np.cos(np.radians(max_incidence_deg))
+    for p, cams in views.items():
+        rays = {c: (positions[c] - points[p]) / np.linalg.norm(positions[c] - points[p]) for c in cams}
+        square = [c for c in cams if rays[c] @ normals[p] >= cos_inc]
+        for i, a in enumerate(square):
+            for b in square[i + 1:]:
+                if rays[a] @ rays[b] >= cos_pair:
+                    count[a, b] += 1
+                    count[b, a] += 1
+    links = (count > 0) & (count >= min_overlap * np.minimum(size[:, None], size[None, :]))
+    np.fill_diagonal(links, False)
+    return links

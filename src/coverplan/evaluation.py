@@ -198,7 +198,8 @@ def match_rule(route: Route) -> MatchRule:
     d = MatchRule()
     return MatchRule(float(route.params.get("max_pair_deg") or d.max_pair_deg),
                      float(route.params.get("min_overlap") or d.min_overlap),
-                     int(route.params.get("min_neighbours") or d.min_neighbours))
+                     int(route.params.get("min_neighbours") or d.min_neighbours),
+                     link_test=str(route.params.get("link_test") or d.link_test))
 
 
 def shot_graph(route: Route, samples: SurfaceSamples, pairs) -> dict:
@@ -209,9 +210,9 @@ def shot_graph(route: Route, samples: SurfaceSamples, pairs) -> dict:
     n = len(photo_poses(route)[0])
     vis = sp.csr_matrix((np.ones(len(cam)), (cam, pt)), shape=(n, len(samples)))
     rule = match_rule(route)
-    summary = graph_summary(shot_links(vis, photo_poses(route)[0], samples.points, rule), rule)
+    summary = graph_summary(shot_links(vis, photo_poses(route)[0], samples.points, rule, normals=samples.normals), rule)
     summary.update({"max_pair_deg": rule.max_pair_deg, "min_overlap": rule.min_overlap,
-                    "min_neighbours": rule.min_neighbours})
+                    "min_neighbours": rule.min_neighbours, "link_test": rule.link_test})
     return summary
 
 

@@ -27,7 +27,7 @@ from coverplan.sfm.check import check as check_photos
 from coverplan.sfm.colmap import GLOBAL_MAPPING_ABOVE
 from coverplan.sfm.existing import read_existing
 from coverplan.sfm.simulate import Simulation, simulate
-from coverplan.shots.reconstructability import MatchRule
+from coverplan.shots.reconstructability import LINK_TESTS, MatchRule
 from coverplan.world.merge import merge_into_target
 from coverplan.world.pointcloud import parse_classes
 
@@ -330,7 +330,7 @@ def _match_rule(args):
 
     given = {k: v for k, v in (("max_pair_deg", args.max_pair_deg), ("min_overlap", args.min_overlap),
                                ("min_neighbours", args.min_neighbours), ("sharp_views", args.sharp_views),
-                               ("framed_views", args.framed_views),
+                               ("framed_views", args.framed_views), ("link_test", args.link_test),
                                ("braced", None if args.links is None else args.links == "braced"))
              if v is not None}
     if not given:
@@ -495,6 +495,10 @@ def _add_planning_args(p):
     p.add_argument("--links", choices=["braced", "one-piece"], default=None,
                    help="sfm rule: braced (default): no photo is the only link between two groups of photos; "
                         "one-piece: the photos only need to link into one set (the rule before December 2026)")
+    p.add_argument("--link-test", choices=list(LINK_TESTS), default=None,
+                   help="sfm rule: how two photos' rays to the surface both see are judged: centroid (default): "
+                        "at the centroid of all of it; faces: face by face, each within 60 deg of both photos "
+                        "(links across a corner count only the faces both photos see squarely)")
     p.add_argument("--sharp-views", type=int, default=None, metavar="N",
                    help="sfm rule: views per surface point within 35 deg of its normal, or as near as any "
                         "safe viewpoint gets plus 5 deg (default 1; 0: none asked)")

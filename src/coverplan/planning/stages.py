@@ -251,7 +251,7 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
     # The candidates' link graph depends on vis alone: built on the other core while HiGHS
     # (which releases the GIL) solves the selection's LP, it is ready when linking starts.
     links_job = pool.submit(candidate_links, vis, cover.cands.positions, samples.points,
-                            setup.match) if setup.match is not None else None
+                            setup.match, normals=samples.normals) if setup.match is not None else None
     # So is the flight graph's lattice when its spacing cannot depend on which shots are chosen
     # (build_flight_graph checks that the shots ask for this very lattice, or builds another).
     h = _lattice_spacing(scene, cover.cands.positions, setup)
@@ -347,7 +347,7 @@ def close_gaps(problem: Problem, selection: Selection, setup: Setup, progress: P
             if match is not None:
                 # Links are judged on the planner's own samples: the check samples crowd a few
                 # strips that hundreds of candidates see, which makes the pair products explode.
-                chosen = _link_new_shots(vis[:, :coarse], cover.cands.positions, samples.points, chosen,
+                chosen = _link_new_shots(vis[:, :coarse], cover.cands.positions, samples, chosen,
                                          before, match, 0.5 * d_opt, known=known)
             check = closer.check(chosen)
             history.append(check.coverage_pct)
@@ -356,7 +356,7 @@ def close_gaps(problem: Problem, selection: Selection, setup: Setup, progress: P
             before = len(chosen)
             chosen = closer.sharpen(chosen, match.sharp_views)
             if len(chosen) > before:  # sharpen leaves the problem as it was: vis still holds
-                chosen = _link_new_shots(vis[:, :coarse], cover.cands.positions, samples.points, chosen,
+                chosen = _link_new_shots(vis[:, :coarse], cover.cands.positions, samples, chosen,
                                          before, match, 0.5 * d_opt, known=known)
                 fine_sharp = len(chosen) - before
                 check = closer.check(chosen)
@@ -483,7 +483,7 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
         params.update({"max_pair_deg": match.max_pair_deg, "min_overlap": match.min_overlap,
                        "min_neighbours": match.min_neighbours, "sharp_views": match.sharp_views,
                        "framed_views": match.framed_views,
-                       "braced_links": match.braced})
+                       "braced_links": match.braced, "link_test": match.link_test})
     _final_check(route, scene, limits)
     through = None
     if settings.fly == "through":
@@ -552,7 +552,7 @@ def _lattice_spacing(scene, shots: np.ndarray, setup: Setup) -> float:
                                                             MAX_LATTICE_NODES)
 
 
-def _link_new_shots(vis, positions, points, chosen, before: int, match: MatchRule, radius: float,
+def _link_new_shots(vis, positions, samples, chosen, before: int, match: MatchRule, radius: float,
                     known=None) -> np.ndarray:
     """connect_shots after a repair round, over the chosen shots and the candidates within
     ``radius`` of the new ones (linking over every candidate again costs seconds). ``known``:
@@ -564,8 +564,10 @@ def _link_new_shots(vis, positions, points, chosen, before: int, match: MatchRul
     links = None
     if known is not None:
         old = pool[pool < known.shape[0]]  # pool is sorted: these come first
-        links = extend_links(vis[pool], positions[pool], points, match, known[old][:, old])
-    linked = connect_shots(vis[pool], positions[pool], points, np.searchsorted(pool, chosen), match, links=links)
+        links = extend_links(vis[pool], positions[pool], samples.points, match, known[old][:, old],
+                             normals=samples.normals)
+    linked = connect_shots(vis[pool], positions[pool], samples.points, np.searchsorted(pool, chosen), match,
+                           links=links, normals=samples.normals)
     return pool[linked]
 
 
@@ -599,7 +601,8 @@ def _drop_redundant(cover: CoverProblem, closer: GapCloser, chosen: np.ndarray, 
         inc = incidence_deg(cam, pt, positions, cover.samples.points, normals)
         sharp.append(SharpViews(framed_view_matrix(cam, pt, view_fill(fill, cam, pt, normals), inc, n_cands, coarse),
                                 match.framed_views))
-    links = shot_links(vis[chosen][:, :coarse], positions[chosen], cover.samples.points[:coarse], match)
+    links = shot_links(vis[chosen][:, :coarse], positions[chosen], cover.samples.points[:coarse], match,
+                       normals=cover.samples.normals[:coarse])
     return drop_redundant(chosen, views, sharp, links, match.min_neighbours, keep=keep)
 
 

@@ -90,6 +90,7 @@ def covisible_pairs(seen: list[np.ndarray], cell: float, k: int) -> list[tuple[i
 
 MATCHINGS = ("spatial", "covisible")
 SPATIAL_NEIGHBOURS = 50
+MAX_FEATURES = 8192  # SIFT features per photo: COLMAP's own default
 
 
 def check_matching(kind: str) -> str:
@@ -190,7 +191,7 @@ def write_position_priors(pycolmap, database: Path, names: list[str], positions:
 
 
 def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, pairs: list[tuple[int, int]],
-            work_dir: Path, *, exhaustive_limit: int = 80, max_features: int = 8192, threads: int = -1,
+            work_dir: Path, *, exhaustive_limit: int = 80, max_features: int = MAX_FEATURES, threads: int = -1,
             seed: int = 0, progress=None, matching: str = "covisible", recorded_positions: np.ndarray | None = None,
             neighbour_distance: float = 100.0, neighbours: int = SPATIAL_NEIGHBOURS,
             mapper: str = "auto") -> SfmResult:

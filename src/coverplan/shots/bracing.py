@@ -69,12 +69,13 @@ def brace_links(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse_vis
     fine = closer.fine
     positions = problem.cands.positions
     vis = check_views(closer, chosen, len(problem.cands))
-    links = candidate_links(vis, positions[chosen], fine.points, rule)
+    links = candidate_links(vis, positions[chosen], fine.points, rule, normals=fine.normals)
     cuts = cut_shots(links)
     if len(cuts) == 0:
         return chosen
-    coarse = problem.samples.points[:coarse_vis.shape[1]]
-    near = candidate_links(coarse_vis, positions, coarse, rule, rows=chosen)[chosen].T.tocsr()  # candidates x shots
+    coarse, coarse_normals = (a[:coarse_vis.shape[1]] for a in (problem.samples.points, problem.samples.normals))
+    near = candidate_links(coarse_vis, positions, coarse, rule, rows=chosen,
+                           normals=coarse_normals)[chosen].T.tocsr()  # candidates x shots
     gain = bracing_gain(links, near, cuts)
     gain[chosen] = 0
     extra = np.flatnonzero(gain > 0)
@@ -83,7 +84,7 @@ def brace_links(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse_vis
     extra = extra[np.argsort(-gain[extra], kind="stable")[:MAX_POOL]]
     pool = np.concatenate([chosen, extra])
     every = extend_links(sp.vstack([vis, new_check_views(problem, closer, extra)]).tocsr(), positions[pool],
-                         fine.points, rule, links)
+                         fine.points, rule, links, normals=fine.normals)
     taken = np.zeros(len(pool), dtype=bool)
     taken[:len(chosen)] = True
     for _ in range(budget):

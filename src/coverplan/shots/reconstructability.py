@@ -26,6 +26,17 @@ from scipy.sparse.csgraph import connected_components
 from coverplan.errors import ParameterError
 
 
+# "centroid": the rays of two photos meet at the centroid of all the samples both see.
+# "faces": the shared samples are grouped by the way they face (FACE_BINS directions) and each
+# group is judged on its own: its rays meet within max_pair_deg at the group's centroid and both
+# photos see it within LINK_INCIDENCE_DEG of its normal; only the groups that pass count towards
+# the overlap. Across a corner the centroid lies inside the building, where two photos on
+# either side look alike, although on each face one of them sees the wall edge-on.
+LINK_TESTS = ("centroid", "faces")
+LINK_INCIDENCE_DEG = 60.0
+FACE_BINS = 64
+
+
 @dataclass(frozen=True)
 class MatchRule:
     """When SfM can be expected to match two photos, and what every photo needs."""
@@ -37,8 +48,12 @@ class MatchRule:
     framed_views: int = 0  # views per sample that its face fills (framing.py); 0: none asked (the default until
     # field runs under the same suns show it helps: docs/reconstruction.md)
     braced: bool = True  # no photo the links hang on (bracing.py); False: one piece is enough
+    link_test: str = "centroid"  # LINK_TESTS: how the shared surface's rays are judged
 
     def __post_init__(self):
+        if self.link_test not in LINK_TESTS:
+            raise ParameterError(f"the link test (--link-test) must be one of {', '.join(LINK_TESTS)}, "
+                                 f"got {self.link_test!r}")
         if not 0 < self.max_pair_deg < 90:
             raise ParameterError(f"the widest matchable pair (--max-pair-deg) must be in (0, 90) deg, "
                                  f"got {self.max_pair_deg:g}")
@@ -78,8 +93,11 @@ def _products(va: sp.csr_matrix, vb: sp.csr_matrix, points: np.ndarray):
 
 
 def shot_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray,
-               rule: MatchRule = MatchRule()) -> np.ndarray:
-    """Boolean (n, n) matrix: which of the n cameras (rows of ``vis``) SfM should match."""
+               rule: MatchRule = MatchRule(), normals: np.ndarray | None = None) -> np.ndarray:
+    """Boolean (n, n) matrix: which of the n cameras (rows of ``vis``) SfM should match.
+    ``normals`` (samples x 3): needed by ``rule.link_test == "faces"``."""
+    if rule.link_test == "faces":
+        return candidate_links(vis, positions, points, rule, normals=normals).toarray() > 0
     vis = sp.csr_matrix(vis, dtype=float)
     size = np.asarray(vis.sum(axis=1)).ravel()
     shared, (cx, cy, cz) = _products(vis, vis, points)
@@ -160,10 +178,12 @@ def graph_summary(links: np.ndarray, rule: MatchRule = MatchRule()) -> dict:
 
 
 def candidate_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray,
-                    rule: MatchRule = MatchRule(), rows: np.ndarray | None = None) -> sp.csr_matrix:
+                    rule: MatchRule = MatchRule(), rows: np.ndarray | None = None,
+                    normals: np.ndarray | None = None) -> sp.csr_matrix:
     """Sparse symmetric link graph over all rows of ``vis``, by the same test as ``shot_links``
     (only pairs that share samples are ever looked at, so it stays sparse). With ``rows``, only
-    the links that have one of these rows at an end.
+    the links that have one of these rows at an end. ``normals`` (samples x 3): needed by
+    ``rule.link_test == "faces"``.
 
     Whether two rows link depends on those two rows alone, to the last bit (each sum runs over
     their shared samples in column order), so links worked out for any subset of rows agree
@@ -172,15 +192,34 @@ def candidate_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarra
     n = vis.shape[0]
     rows = np.arange(n) if rows is None else np.asarray(rows, dtype=np.int64)
     size = np.asarray(vis.sum(axis=1)).ravel()
-    vt = vis.T.tocsc()
-    mine = vis[rows]
+    listed = np.zeros(n, dtype=bool)
+    listed[rows] = True
+    if rule.link_test == "faces":
+        r, c = _face_links(vis, rows, listed, size, positions, points, normals, rule)
+    else:
+        r, c, shared, centre = _shared_entries(vis[rows], rows, vis.T.tocsc(), points)
+        keep = ((r < c) | ~listed[c]) & (shared >= rule.min_overlap * np.minimum(size[r], size[c]))
+        r, c, centre = r[keep], c[keep], centre[keep]
+        ok = _ray_cos(positions[r] - centre, positions[c] - centre) >= np.cos(np.radians(rule.max_pair_deg))
+        r, c = r[ok], c[ok]
+    return sp.csr_matrix((np.ones(2 * len(r)), (np.concatenate([r, c]), np.concatenate([c, r]))), shape=(n, n))
+
+
+def _ray_cos(ra: np.ndarray, rb: np.ndarray) -> np.ndarray:
+    return np.einsum("ij,ij->i", ra, rb) / np.maximum(np.linalg.norm(ra, axis=1) * np.linalg.norm(rb, axis=1), 1e-12)
+
+
+def _shared_entries(mine: sp.csr_matrix, rows: np.ndarray, vt: sp.csc_matrix, points: np.ndarray):
+    """Every pair (row of ``mine``, column of ``vt``) that shares samples: the global row
+    ``rows[i]``, the column, the count of shared samples and their centroid (k, 3)."""
     shared = (mine @ vt).tocsr()
     # The sums of the shared samples' coordinates: x and y in one complex product, z in
     # another. Coordinates shifted to be positive, so the sums have exactly the pattern of
     # ``shared``; products of one pattern come out in one order, so their data arrays line up
     # entry for entry without sorting (checked; sorted if not). 1.5x faster than three
     # products each sorted, the same links.
-    shifted = points - points.min(axis=0) + 1.0
+    low = points.min(axis=0) if len(points) else np.zeros(3)
+    shifted = points - low + 1.0
     j = mine.indices
     xy = sp.csr_matrix((shifted[j, 0] + 1j * shifted[j, 1], j, mine.indptr), shape=mine.shape) @ vt
     z = sp.csr_matrix((shifted[j, 2], j, mine.indptr), shape=mine.shape) @ vt
@@ -188,30 +227,59 @@ def candidate_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarra
     if not all(np.array_equal(m.indptr, shared.indptr) and np.array_equal(m.indices, shared.indices) for m in (xy, z)):
         for m in (shared, xy, z):
             m.sort_indices()
-    centre = (np.column_stack([xy.data.real, xy.data.imag, z.data]) / shared.data[:, None]
-              + (points.min(axis=0) - 1.0))
+    centre = (np.column_stack([xy.data.real, xy.data.imag, z.data]) / shared.data[:, None] + (low - 1.0))
     r = rows[np.repeat(np.arange(shared.shape[0]), np.diff(shared.indptr))]
-    c = shared.indices
-    listed = np.zeros(n, dtype=bool)
-    listed[rows] = True
-    keep = ((r < c) | ~listed[c]) & (shared.data >= rule.min_overlap * np.minimum(size[r], size[c]))
-    r, c, centre = r[keep], c[keep], centre[keep]
-    ra = positions[r] - centre
-    rb = positions[c] - centre
-    cos = np.einsum("ij,ij->i", ra, rb) / np.maximum(np.linalg.norm(ra, axis=1) * np.linalg.norm(rb, axis=1), 1e-12)
-    ok = cos >= np.cos(np.radians(rule.max_pair_deg))
-    r, c = r[ok], c[ok]
-    return sp.csr_matrix((np.ones(2 * len(r)), (np.concatenate([r, c]), np.concatenate([c, r]))), shape=(n, n))
+    return r, shared.indices, shared.data, centre
+
+
+def face_groups(normals: np.ndarray, bins: int = FACE_BINS) -> np.ndarray:
+    """(n,) int: the ``facing_bins`` direction nearest each normal (n, 3)."""
+    from coverplan.shots.framing import facing_bins
+    return np.argmax(np.asarray(normals, dtype=float) @ facing_bins(bins).T, axis=1) if len(normals) else \
+        np.zeros(0, dtype=np.int64)
+
+
+def _face_links(vis: sp.csr_matrix, rows: np.ndarray, listed: np.ndarray, size: np.ndarray, positions: np.ndarray,
+                points: np.ndarray, normals: np.ndarray | None, rule: MatchRule):
+    """The pairs (r, c) that pass the "faces" link test (``LINK_TESTS``)."""
+    if normals is None:
+        raise ValueError("the faces link test needs the samples' normals")
+    group = face_groups(normals)
+    order = np.argsort(group, kind="stable")
+    bounds = np.searchsorted(group[order], np.arange(FACE_BINS + 1))
+    by_face = vis[:, order].tocsc()
+    cos_pair, cos_inc = np.cos(np.radians(rule.max_pair_deg)), np.cos(np.radians(LINK_INCIDENCE_DEG))
+    found = []
+    for g in np.flatnonzero(np.diff(bounds)):  # one sparse product per direction the surface faces
+        cols = order[bounds[g]:bounds[g + 1]]
+        face = by_face[:, bounds[g]:bounds[g + 1]].tocsr()
+        r, c, shared, centre = _shared_entries(face[rows], rows, face.T.tocsc(), points[cols])
+        keep = (r < c) | ~listed[c]
+        r, c, shared, centre = r[keep], c[keep], shared[keep], centre[keep]
+        normal = normals[cols].sum(axis=0)
+        normal = normal / max(np.linalg.norm(normal), 1e-12)
+        ra, rb = positions[r] - centre, positions[c] - centre
+        ok = ((_ray_cos(ra, rb) >= cos_pair) & (_ray_cos(ra, np.broadcast_to(normal, ra.shape)) >= cos_inc)
+              & (_ray_cos(rb, np.broadcast_to(normal, rb.shape)) >= cos_inc))
+        found.append((r[ok], c[ok], shared[ok]))
+    n = vis.shape[0]
+    r, c, shared = (np.concatenate(x) for x in zip(*found)) if found else (np.zeros(0, np.int64),) * 3
+    counted = sp.coo_matrix((shared, (r, c)), shape=(n, n)).tocsr()
+    counted.sum_duplicates()
+    counted = counted.tocoo()
+    r, c = counted.row.astype(np.int64), counted.col.astype(np.int64)
+    ok = counted.data >= rule.min_overlap * np.minimum(size[r], size[c])
+    return r[ok], c[ok]
 
 
 def extend_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray, rule: MatchRule,
-                 known: sp.csr_matrix) -> sp.csr_matrix:
+                 known: sp.csr_matrix, normals: np.ndarray | None = None) -> sp.csr_matrix:
     """``candidate_links`` of every row of ``vis`` when ``known`` holds those among its first
     ``known.shape[0]`` rows: only the other rows' links are worked out (the same graph, as a
     link depends on its two rows alone)."""
     n = vis.shape[0]
     old = known.tocoo()
-    links = (candidate_links(vis, positions, points, rule, rows=np.arange(known.shape[0], n))
+    links = (candidate_links(vis, positions, points, rule, rows=np.arange(known.shape[0], n), normals=normals)
              + sp.csr_matrix((old.data, (old.row, old.col)), shape=(n, n))).tocsr()
     links.sum_duplicates()
     return links
@@ -219,7 +287,7 @@ def extend_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray, 
 
 def connect_shots(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray, chosen: np.ndarray,
                   rule: MatchRule = MatchRule(), max_added: int | None = None,
-                  links: sp.csr_matrix | None = None) -> np.ndarray:
+                  links: sp.csr_matrix | None = None, normals: np.ndarray | None = None) -> np.ndarray:
     """Add candidates (rows of ``vis``) to ``chosen`` until every chosen shot has
     ``rule.min_neighbours`` links and the links join all shots in one piece, or nothing helps.
     ``links``: ``candidate_links(vis, positions, points, rule)`` if already worked out.
@@ -234,7 +302,7 @@ def connect_shots(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray,
     if len(chosen) < 2:
         return np.array(chosen, dtype=np.int64)
     budget = len(chosen) if max_added is None else int(max_added)
-    links = candidate_links(vis, positions, points, rule) if links is None else links
+    links = candidate_links(vis, positions, points, rule, normals=normals) if links is None else links
     n = links.shape[0]
     taken = np.zeros(n, dtype=bool)
     taken[chosen] = True

@@ -36,13 +36,13 @@ def relink_on_check(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse
     fine = closer.fine
     vis = check_views(closer, chosen, len(problem.cands))
     positions = problem.cands.positions
-    links = candidate_links(vis, positions[chosen], fine.points, rule)
+    links = candidate_links(vis, positions[chosen], fine.points, rule, normals=fine.normals)
     n_pieces, piece = connected_components(links, directed=False)
     short = np.asarray(links.sum(axis=1)).ravel() < rule.min_neighbours
     if n_pieces <= 1 and not short.any():
         return chosen
-    coarse = problem.samples.points[:coarse_vis.shape[1]]
-    near = candidate_links(coarse_vis, positions, coarse, rule, rows=chosen)[chosen].tocsr()  # shots x candidates
+    coarse, coarse_normals = (a[:coarse_vis.shape[1]] for a in (problem.samples.points, problem.samples.normals))
+    near = candidate_links(coarse_vis, positions, coarse, rule, rows=chosen, normals=coarse_normals)[chosen].tocsr()  # shots x candidates
     member = sp.csr_matrix((np.ones(len(chosen)), (piece, np.arange(len(chosen)))), shape=(n_pieces, len(chosen)))
     pieces_reached = np.asarray(((member @ near) > 0).sum(axis=0)).ravel()
     helps_short = np.asarray(near[np.flatnonzero(short)].sum(axis=0)).ravel() > 0
@@ -53,7 +53,7 @@ def relink_on_check(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse
         return chosen
     pool = np.concatenate([chosen, extra])
     vis = sp.vstack([vis, new_check_views(problem, closer, extra)]).tocsr()
-    every = extend_links(vis, positions[pool], fine.points, rule, links)  # the shots' own links are known
+    every = extend_links(vis, positions[pool], fine.points, rule, links, normals=fine.normals)  # the shots' own links
     linked = connect_shots(vis, positions[pool], fine.points, np.arange(len(chosen)), rule, links=every)
     return pool[linked]
 
