@@ -229,6 +229,29 @@ def test_a_candidate_braces_the_cuts_it_spans():
     assert bracing_gain(chain, to_shots, cut_shots(chain)).tolist() == [1, 1, 3, 0]
 
 
+def test_bracing_gain_counts_the_pieces_each_cut_leaves():
+    """On random graphs (chains with chords, some in several pieces), against the definition:
+    remove the cut, find the pieces, count the candidates that link to two of them."""
+    from scipy.sparse.csgraph import connected_components
+    rng = np.random.default_rng(11)
+    for _ in range(150):
+        k, m = int(rng.integers(3, 60)), int(rng.integers(1, 120))
+        links = np.zeros((k, k), dtype=bool)
+        links[np.arange(k - 1), np.arange(1, k)] = rng.random(k - 1) < 0.9
+        links |= rng.random((k, k)) < rng.uniform(0, 0.08)
+        links |= links.T
+        np.fill_diagonal(links, False)
+        to_shots = rng.random((m, k)) < rng.uniform(0.01, 0.2)
+        cuts = cut_shots(links)
+        want = np.zeros(m, dtype=np.int64)
+        for a in cuts:
+            keep = np.flatnonzero(np.arange(k) != a)
+            _n, piece = connected_components(sp.csr_matrix(links[np.ix_(keep, keep)]), directed=False)
+            pieces_reached = [len(set(piece[np.flatnonzero(to_shots[c, keep])])) for c in range(m)]
+            want += np.array(pieces_reached) >= 2
+        assert bracing_gain(sp.csr_matrix(links), sp.csr_matrix(to_shots), cuts).tolist() == want.tolist()
+
+
 def test_braced_links_leave_no_photo_the_set_hangs_on(house_job):
     """The gabled house's photos linked only into one piece were a chain: 16 of 38 photos
     were each the only link between two groups (one of three field draws split the model

@@ -13,9 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.csgraph import connected_components
 
-from coverplan.shots.reconstructability import MatchRule, candidate_links, cut_shots, extend_links
+from coverplan.shots.reconstructability import MatchRule, candidate_links, cut_shots, depth_first, extend_links
 from coverplan.shots.relink import check_views, new_check_views
 
 
@@ -40,12 +39,29 @@ def bracing_gain(among: sp.csr_matrix, to_shots: sp.csr_matrix, cuts: np.ndarray
     among, to_shots = sp.csr_matrix(among), sp.csr_matrix(to_shots)
     k = among.shape[0]
     gain = np.zeros(to_shots.shape[0], dtype=np.int64)
-    for a in cuts:
-        keep = np.ones(k, dtype=bool)
-        keep[a] = False
-        n_pieces, piece = connected_components(among[keep][:, keep], directed=False)
-        member = sp.csr_matrix((np.ones(k - 1), (np.flatnonzero(keep), piece)), shape=(k, n_pieces))
-        gain += np.asarray(((to_shots @ member) > 0).sum(axis=1)).ravel() >= 2
+    if len(cuts) == 0 or to_shots.nnz == 0:
+        return gain
+    # The pieces left when a cut shot goes are read off one depth-first search: each child
+    # subtree whose low-link does not reach above the cut is a piece of its own (its preorder
+    # numbers are one run), the rest of the cut's tree is one more, other trees stay as they are.
+    dfs = depth_first(among)
+    order, low, parent, size = dfs["order"], dfs["low"], dfs["parent"], dfs["size"]
+    by_order = np.argsort(order)
+    shot = to_shots.indices
+    has = np.diff(to_shots.indptr) > 0
+    starts = to_shots.indptr[:-1][has]
+    for a in np.asarray(cuts, dtype=np.int64):
+        label = dfs["root"].copy()
+        children = np.flatnonzero((parent == a) & (low >= order[a]))
+        run = np.zeros(k + 1, dtype=np.int64)  # +label over each separating child's preorder run
+        np.add.at(run, order[children], k + children - dfs["root"][a])
+        np.add.at(run, order[children] + size[children], -(k + children - dfs["root"][a]))
+        label[by_order] += np.cumsum(run)[:k]
+        mine = label[shot]
+        skip = shot == a  # links to the cut itself join nothing once it is gone
+        high = np.maximum.reduceat(np.where(skip, -1, mine), starts)
+        lowest = np.minimum.reduceat(np.where(skip, 2 * k + 1, mine), starts)
+        gain[has] += (high >= 0) & (lowest <= 2 * k) & (high != lowest)
     return gain
 
 

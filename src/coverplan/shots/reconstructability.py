@@ -120,18 +120,34 @@ def cut_shots(links: sp.spmatrix) -> np.ndarray:
     (k,) int
         Sorted indices of the cut shots.
     """
+    return np.flatnonzero(depth_first(links)["cut"])
+
+
+def depth_first(links: sp.spmatrix) -> dict:
+    """Tarjan's depth-first search of the symmetric ``links`` (n, n), on an explicit stack.
+
+    Returns
+    -------
+    dict of (n,) arrays
+        ``order``: preorder number (a subtree holds the numbers ``order[w]`` up to
+        ``order[w] + size[w]``); ``low``: its low-link; ``parent``: -1 at a root; ``size``:
+        shots in the subtree; ``root``: the root of the shot's tree; ``cut``: bool, the cut shots.
+    """
     g = sp.csr_matrix(links)
     n = g.shape[0]
     indptr, indices = g.indptr, g.indices
     order = np.full(n, -1, dtype=np.int64)
     low = np.zeros(n, dtype=np.int64)
     parent = np.full(n, -1, dtype=np.int64)
+    size = np.ones(n, dtype=np.int64)
+    root_of = np.zeros(n, dtype=np.int64)
     cut = np.zeros(n, dtype=bool)
     clock = 0
     for root in range(n):
         if order[root] >= 0:
             continue
         order[root] = low[root] = clock
+        root_of[root] = root
         clock += 1
         children = 0
         stack = [(root, indptr[root])]
@@ -144,6 +160,7 @@ def cut_shots(links: sp.spmatrix) -> np.ndarray:
                     continue
                 if order[w] < 0:
                     parent[w] = v
+                    root_of[w] = root
                     order[w] = low[w] = clock
                     clock += 1
                     if v == root:
@@ -156,11 +173,12 @@ def cut_shots(links: sp.spmatrix) -> np.ndarray:
                 p = parent[v]
                 if p >= 0:
                     low[p] = min(low[p], low[v])
+                    size[p] += size[v]
                     if p != root and low[v] >= order[p]:
                         cut[p] = True
         if children > 1:
             cut[root] = True
-    return np.flatnonzero(cut)
+    return {"order": order, "low": low, "parent": parent, "size": size, "root": root_of, "cut": cut}
 
 
 def graph_summary(links: np.ndarray, rule: MatchRule = MatchRule()) -> dict:
