@@ -36,7 +36,8 @@ def bracing_gain(among: sp.csr_matrix, to_shots: sp.csr_matrix, cuts: np.ndarray
     (m,) int
         Cuts each candidate braces.
     """
-    among, to_shots = sp.csr_matrix(among), sp.csr_matrix(to_shots)
+    among, to_shots = sp.csr_matrix(among), sp.csr_matrix(to_shots, copy=True)
+    to_shots.eliminate_zeros()  # a stored zero is no link
     k = among.shape[0]
     gain = np.zeros(to_shots.shape[0], dtype=np.int64)
     if len(cuts) == 0 or to_shots.nnz == 0:
