@@ -54,9 +54,10 @@ def bracing_gain(among: sp.csr_matrix, to_shots: sp.csr_matrix, cuts: np.ndarray
     for a in np.asarray(cuts, dtype=np.int64):
         label = dfs["root"].copy()
         children = np.flatnonzero((parent == a) & (low >= order[a]))
-        run = np.zeros(k + 1, dtype=np.int64)  # +label over each separating child's preorder run
-        np.add.at(run, order[children], k + children - dfs["root"][a])
-        np.add.at(run, order[children] + size[children], -(k + children - dfs["root"][a]))
+        lift = k + children - dfs["root"][a]  # each separating child's piece gets the label k + child
+        run = np.zeros(k + 1, dtype=np.int64)  # +lift over the child's preorder run
+        np.add.at(run, order[children], lift)
+        np.add.at(run, order[children] + size[children], -lift)
         label[by_order] += np.cumsum(run)[:k]
         mine = label[shot]
         skip = shot == a  # links to the cut itself join nothing once it is gone

@@ -253,8 +253,7 @@ def _shared_entries(mine: sp.csr_matrix, rows: np.ndarray, vt: sp.csc_matrix, po
 def face_groups(normals: np.ndarray, bins: int = FACE_BINS) -> np.ndarray:
     """(n,) int: the ``facing_bins`` direction nearest each normal (n, 3)."""
     from coverplan.shots.framing import facing_bins
-    return np.argmax(np.asarray(normals, dtype=float) @ facing_bins(bins).T, axis=1) if len(normals) else \
-        np.zeros(0, dtype=np.int64)
+    return np.argmax(np.asarray(normals, dtype=float).reshape(-1, 3) @ facing_bins(bins).T, axis=1)
 
 
 def _face_links(vis: sp.csr_matrix, rows: np.ndarray, listed: np.ndarray, size: np.ndarray, positions: np.ndarray,
@@ -277,8 +276,8 @@ def _face_links(vis: sp.csr_matrix, rows: np.ndarray, listed: np.ndarray, size: 
         normal = normals[cols].sum(axis=0)
         normal = normal / max(np.linalg.norm(normal), 1e-12)
         ra, rb = positions[r] - centre, positions[c] - centre
-        ok = ((_ray_cos(ra, rb) >= cos_pair) & (_ray_cos(ra, np.broadcast_to(normal, ra.shape)) >= cos_inc)
-              & (_ray_cos(rb, np.broadcast_to(normal, rb.shape)) >= cos_inc))
+        ok = ((_ray_cos(ra, rb) >= cos_pair) & (ra @ normal >= cos_inc * np.linalg.norm(ra, axis=1))
+              & (rb @ normal >= cos_inc * np.linalg.norm(rb, axis=1)))
         found.append((r[ok], c[ok], shared[ok]))
     n = vis.shape[0]
     r, c, shared = (np.concatenate(x) for x in zip(*found)) if found else (np.zeros(0, np.int64),) * 3
