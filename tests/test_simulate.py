@@ -245,12 +245,40 @@ def test_large_flights_match_photos_that_see_the_same_surface():
     assert not any(4 in p for p in pairs)
 
 
+def test_a_bar_follows_the_rows_colmap_writes_and_errors_reach_the_caller(tmp_path, monkeypatch):
+    """Features and matches run as one pycolmap call each; the bar ticks as rows appear in the
+    database the call writes, never past its total, and the call's error is the caller's."""
+    import sqlite3
+    import time
+
+    from coverplan.sfm import colmap
+    monkeypatch.setattr(colmap, "POLL_S", 0.02)
+    db = tmp_path / "database.db"
+
+    def write(rows, fail=False):
+        con = sqlite3.connect(db)
+        con.execute("CREATE TABLE IF NOT EXISTS keypoints (image_id INTEGER)")
+        for k in range(rows):
+            con.execute("INSERT INTO keypoints VALUES (?)", (k,))
+            con.commit()
+            time.sleep(0.1)
+        con.close()
+        if fail:
+            raise RuntimeError("COLMAP stopped")
+
+    ticks = []
+    colmap.polled(lambda: write(6), db, "keypoints", 5, ticks.append)
+    assert sum(ticks) == 5 and len(ticks) >= 3 and all(t > 0 for t in ticks), ticks
+    with pytest.raises(RuntimeError, match="COLMAP stopped"):
+        colmap.polled(lambda: write(1, fail=True), db, "keypoints", 10, ticks.append)
+
+
 @pytest.mark.parametrize("neighbours, distance", [(5, 8.0), (4, 100.0), (9, 6.0)])
 def test_spatial_pairs_are_the_pairs_colmaps_spatial_matcher_takes(tmp_path, neighbours, distance):
-    """``spatial_pairs`` (matched in chunks, so the bar can show the time left) against COLMAP's
+    """``spatial_pairs`` (matched in one call whose bar follows the database) against COLMAP's
     own spatial matcher on the same pose priors: the same pairs. The photos are one textured
     image repeated, so that COLMAP writes matches for every pair it tries; their features are
-    extracted in chunks onto one camera."""
+    extracted onto one camera, the bar ticking once per photo in all."""
     from PIL import Image
     from scipy.ndimage import gaussian_filter
 
@@ -267,10 +295,10 @@ def test_spatial_pairs_are_the_pairs_colmaps_spatial_matcher_takes(tmp_path, nei
     db_path = tmp_path / "database.db"
     reader = pycolmap.ImageReaderOptions()
     reader.camera_model, reader.camera_params = "PINHOLE", "100,100,80,60"
-    chunks = []
+    ticks = []
     extract_features(pycolmap, db_path, tmp_path / "img", names, reader, pycolmap.FeatureExtractionOptions(),
-                     chunks.append)
-    assert len(chunks) > 1 and sum(chunks) == len(names)
+                     ticks.append)
+    assert sum(ticks) == len(names)
     write_position_priors(pycolmap, db_path, names, positions, 1.0)
     pairing = pycolmap.SpatialPairingOptions()
     pairing.ignore_z, pairing.max_num_neighbors, pairing.max_distance = False, neighbours, distance
