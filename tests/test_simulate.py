@@ -33,9 +33,10 @@ def house(house_job):
 # shadows, clouds, auto exposure, sensor noise, textures at the materials' own scales. At the
 # default 1024 px (at 640 px this draw rebuilds 92.6 %: too coarse for the bar). Matched as a
 # large flight is, by COLMAP's spatial matcher on the photos' GNSS tags, with 16 neighbours
-# each instead of 50 to keep the test near 3 minutes (200 s alone). COLMAP's 8,192 SIFT features
-# a photo: with 4,096 the fixture took 147 s and rebuilt 97.2 % instead of 99.4 %, but the
-# global mapper on those matches left the west face at 17 %.
+# each instead of 50 to keep the test under 3 minutes (145 s alone; with 10 or 12 neighbours
+# this draw splits in two models). COLMAP's 8,192 SIFT features a photo: with 4,096 it
+# rebuilt 97.2 % instead of 99.4 %, and the global mapper on those matches left the west face
+# at 17 %.
 FIELD_SEED = 0
 
 

@@ -237,9 +237,8 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     matching_kind = matching
     matching = pycolmap.FeatureMatchingOptions()
     matching.num_threads = threads
-    # COLMAP seeds its verification RANSAC from the clock unless told: one seed makes a draw
-    # the same run after run (unseeded, the global mapper rebuilt one flight's west face to
-    # 99 % or to 14 % depending on the run).
+    # COLMAP seeds its verification RANSAC from the clock unless told: with the draw's seed a
+    # draw verifies the same inliers, pair for pair, on every run.
     verification = pycolmap.TwoViewGeometryOptions()
     verification.ransac.random_seed = int(seed)
     if len(names) <= exhaustive_limit:
@@ -281,18 +280,25 @@ def _open_database(pycolmap, database: Path):
     return pycolmap.Database.open(database) if hasattr(pycolmap.Database, "open") else pycolmap.Database(database)
 
 
+# Rows are counted in a child process: a second SQLite library in COLMAP's own process shares
+# its POSIX locks, so closing that connection can reset the WAL index COLMAP has mapped (seen:
+# COLMAP's matcher killed by SIGBUS).
+_COUNT_ROWS = ("import sqlite3, sys\n"
+               "con = sqlite3.connect('file:' + sys.argv[1] + '?mode=ro', uri=True, timeout=0.2)\n"
+               "print(con.execute('SELECT COUNT(*) FROM ' + sys.argv[2]).fetchone()[0])\n")
+
+
 def _rows(database: Path, table: str) -> int | None:
     """Rows in a table of COLMAP's database while COLMAP writes it (None if it is busy)."""
-    import sqlite3
+    import subprocess
+    import sys
 
     try:
-        con = sqlite3.connect(f"file:{database}?mode=ro", uri=True, timeout=0.2)
-        try:
-            return int(con.execute(f"SELECT COUNT(*) FROM {table}").fetchone()[0])
-        finally:
-            con.close()
-    except sqlite3.Error:
+        out = subprocess.run([sys.executable, "-c", _COUNT_ROWS, str(database), table], capture_output=True,
+                             text=True, timeout=10)
+    except (OSError, subprocess.TimeoutExpired):
         return None
+    return int(out.stdout) if out.returncode == 0 and out.stdout.strip().isdigit() else None
 
 
 def polled(call, database: Path, table: str, total: int, tick) -> None:
