@@ -274,6 +274,28 @@ def test_a_bar_follows_the_rows_colmap_writes_and_errors_reach_the_caller(tmp_pa
         colmap.polled(lambda: write(1, fail=True), db, "keypoints", 10, ticks.append)
 
 
+def test_ctrl_c_cancels_colmap_and_waits_for_it(tmp_path, monkeypatch):
+    """Interrupted while COLMAP works (Ctrl-C arrives in the caller's thread), ``polled``
+    cancels pycolmap's token and waits for the call to stop before the interruption goes on."""
+    from coverplan.sfm import colmap
+    monkeypatch.setattr(colmap, "POLL_S", 0.02)
+    token = pycolmap.CancellationToken()
+    stopped = []
+
+    def work():
+        while not token.is_cancelled:
+            (tmp_path / "database.db").touch()
+        stopped.append(True)
+
+    def tick(_n):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(colmap, "_rows", lambda _db, _table: 1)
+    with pytest.raises(KeyboardInterrupt):
+        colmap.polled(work, tmp_path / "database.db", "keypoints", 10, tick, token)
+    assert stopped == [True]
+
+
 @pytest.mark.parametrize("neighbours, distance", [(5, 8.0), (4, 100.0), (9, 6.0)])
 def test_spatial_pairs_are_the_pairs_colmaps_spatial_matcher_takes(tmp_path, neighbours, distance):
     """``spatial_pairs`` (matched in one call whose bar follows the database) against COLMAP's

@@ -243,10 +243,12 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     verification.ransac.random_seed = int(seed)
     if len(names) <= exhaustive_limit:
         total = len(names) * (len(names) - 1) // 2
+        token = pycolmap.CancellationToken()
         with _stage(progress, "SfM matching", total=total, unit="pair") as tick:
             polled(lambda: pycolmap.match_exhaustive(database, matching_options=matching,
-                                                     verification_options=verification, device=pycolmap.Device.cpu),
-                   database, "two_view_geometries", total, tick)
+                                                     verification_options=verification, device=pycolmap.Device.cpu,
+                                                     cancellation_token=token),
+                   database, "two_view_geometries", total, tick, token)
     else:
         if matching_kind == "spatial":
             recorded = recorded_positions if recorded_positions is not None else true_centres
@@ -301,11 +303,13 @@ def _rows(database: Path, table: str) -> int | None:
     return int(out.stdout) if out.returncode == 0 and out.stdout.strip().isdigit() else None
 
 
-def polled(call, database: Path, table: str, total: int, tick) -> None:
+def polled(call, database: Path, table: str, total: int, tick, token=None) -> None:
     """Run ``call`` (one pycolmap call that fills ``table`` of ``database``) in a thread and
     ``tick`` as its rows appear, up to ``total``. One call, not many small ones: on 47 photos,
     20 calls took 53 s to extract features and 50 s to match that one call does in 37 s each
-    (every call starts its threads and loads its photos' descriptors again)."""
+    (every call starts its threads and loads its photos' descriptors again). ``token``, the
+    pycolmap CancellationToken ``call`` was given, is cancelled if the caller is interrupted
+    (Ctrl-C), and the call is waited for before the interruption goes on."""
     import threading
 
     failed = []
@@ -319,12 +323,18 @@ def polled(call, database: Path, table: str, total: int, tick) -> None:
     worker = threading.Thread(target=run, daemon=True)
     worker.start()
     shown = 0
-    while worker.is_alive():
-        worker.join(POLL_S)
-        rows = _rows(database, table) if database.exists() else None
-        if rows is not None and min(rows, total) > shown:
-            tick(min(rows, total) - shown)
-            shown = min(rows, total)
+    try:
+        while worker.is_alive():
+            worker.join(POLL_S)
+            rows = _rows(database, table) if database.exists() else None
+            if rows is not None and min(rows, total) > shown:
+                tick(min(rows, total) - shown)
+                shown = min(rows, total)
+    except BaseException:
+        if token is not None:
+            token.cancel()
+            worker.join()
+        raise
     if failed:
         raise failed[0]
     if total > shown:
@@ -335,10 +345,12 @@ def extract_features(pycolmap, database: Path, image_dir: Path, names: list[str]
                      tick=lambda _n=1: None) -> None:
     """SIFT features of the photos ``names`` into ``database``, on one camera (the photos share
     the intrinsics), ``tick`` per photo done."""
+    token = pycolmap.CancellationToken()
     polled(lambda: pycolmap.extract_features(database, image_dir, image_names=list(names),
                                              camera_mode=pycolmap.CameraMode.SINGLE, reader_options=reader,
-                                             extraction_options=extraction, device=pycolmap.Device.cpu),
-           Path(database), "keypoints", len(names), tick)
+                                             extraction_options=extraction, device=pycolmap.Device.cpu,
+                                             cancellation_token=token),
+           Path(database), "keypoints", len(names), tick, token)
 
 
 def spatial_pairs(positions: np.ndarray, neighbours: int, max_distance: float) -> list[tuple[int, int]]:
@@ -377,10 +389,12 @@ def _match_pairs(pycolmap, database: Path, work_dir: Path, names: list[str], pai
     pairs_file.write_text("".join(f"{names[i]} {names[j]}\n" for i, j in pairs))
     pairing = pycolmap.ImportedPairingOptions()
     pairing.match_list_path = pairs_file
+    token = pycolmap.CancellationToken()
     with _stage(progress, "SfM matching", total=len(pairs), unit="pair") as tick:
         polled(lambda: pycolmap.match_image_pairs(database, matching_options=options, pairing_options=pairing,
-                                                  verification_options=verification, device=pycolmap.Device.cpu),
-               database, "two_view_geometries", len(pairs), tick)
+                                                  verification_options=verification, device=pycolmap.Device.cpu,
+                                                  cancellation_token=token),
+               database, "two_view_geometries", len(pairs), tick, token)
 
 
 def _aligned(pycolmap, rec, index: dict, true_centres: np.ndarray) -> SfmModel:
