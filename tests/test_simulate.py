@@ -268,10 +268,10 @@ def test_a_bar_follows_the_rows_colmap_writes_and_errors_reach_the_caller(tmp_pa
             raise RuntimeError("COLMAP stopped")
 
     ticks = []
-    colmap.polled(lambda: write(6), db, "keypoints", 5, ticks.append)
+    colmap.polled(pycolmap, lambda _token: write(6), db, "keypoints", 5, ticks.append)
     assert sum(ticks) == 5 and len(ticks) >= 3 and all(t > 0 for t in ticks), ticks
     with pytest.raises(RuntimeError, match="COLMAP stopped"):
-        colmap.polled(lambda: write(1, fail=True), db, "keypoints", 10, ticks.append)
+        colmap.polled(pycolmap, lambda _token: write(1, fail=True), db, "keypoints", 10, ticks.append)
 
 
 def test_ctrl_c_cancels_colmap_and_waits_for_it(tmp_path, monkeypatch):
@@ -279,10 +279,9 @@ def test_ctrl_c_cancels_colmap_and_waits_for_it(tmp_path, monkeypatch):
     cancels pycolmap's token and waits for the call to stop before the interruption goes on."""
     from coverplan.sfm import colmap
     monkeypatch.setattr(colmap, "POLL_S", 0.02)
-    token = pycolmap.CancellationToken()
     stopped = []
 
-    def work():
+    def work(token):
         while not token.is_cancelled:
             (tmp_path / "database.db").touch()
         stopped.append(True)
@@ -292,7 +291,7 @@ def test_ctrl_c_cancels_colmap_and_waits_for_it(tmp_path, monkeypatch):
 
     monkeypatch.setattr(colmap, "_rows", lambda _db, _table: 1)
     with pytest.raises(KeyboardInterrupt):
-        colmap.polled(work, tmp_path / "database.db", "keypoints", 10, tick, token)
+        colmap.polled(pycolmap, work, tmp_path / "database.db", "keypoints", 10, tick)
     assert stopped == [True]
 
 

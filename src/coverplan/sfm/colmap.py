@@ -243,12 +243,10 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     verification.ransac.random_seed = int(seed)
     if len(names) <= exhaustive_limit:
         total = len(names) * (len(names) - 1) // 2
-        token = pycolmap.CancellationToken()
         with _stage(progress, "SfM matching", total=total, unit="pair") as tick:
-            polled(lambda: pycolmap.match_exhaustive(database, matching_options=matching,
-                                                     verification_options=verification, device=pycolmap.Device.cpu,
-                                                     cancellation_token=token),
-                   database, "two_view_geometries", total, tick, token)
+            polled(pycolmap, lambda token: pycolmap.match_exhaustive(
+                database, matching_options=matching, verification_options=verification,
+                device=pycolmap.Device.cpu, cancellation_token=token), database, "two_view_geometries", total, tick)
     else:
         if matching_kind == "spatial":
             recorded = recorded_positions if recorded_positions is not None else true_centres
@@ -303,20 +301,21 @@ def _rows(database: Path, table: str) -> int | None:
     return int(out.stdout) if out.returncode == 0 and out.stdout.strip().isdigit() else None
 
 
-def polled(call, database: Path, table: str, total: int, tick, token=None) -> None:
-    """Run ``call`` (one pycolmap call that fills ``table`` of ``database``) in a thread and
-    ``tick`` as its rows appear, up to ``total``. One call, not many small ones: on 47 photos,
-    20 calls took 53 s to extract features and 50 s to match that one call does in 37 s each
-    (every call starts its threads and loads its photos' descriptors again). ``token``, the
-    pycolmap CancellationToken ``call`` was given, is cancelled if the caller is interrupted
-    (Ctrl-C), and the call is waited for before the interruption goes on."""
+def polled(pycolmap, call, database: Path, table: str, total: int, tick) -> None:
+    """Run ``call(token)`` (one pycolmap call that fills ``table`` of ``database``, given a
+    pycolmap CancellationToken) in a thread and ``tick`` as its rows appear, up to ``total``.
+    One call, not many small ones: on 47 photos, 20 calls took 53 s to extract features and
+    50 s to match that one call does in 37 s each (every call starts its threads and loads its
+    photos' descriptors again). If the caller is interrupted (Ctrl-C) the token is cancelled
+    and the call waited for before the interruption goes on."""
     import threading
 
+    token = pycolmap.CancellationToken()
     failed = []
 
     def run():
         try:
-            call()
+            call(token)
         except BaseException as exc:  # re-raised in the caller's thread
             failed.append(exc)
 
@@ -331,9 +330,8 @@ def polled(call, database: Path, table: str, total: int, tick, token=None) -> No
                 tick(min(rows, total) - shown)
                 shown = min(rows, total)
     except BaseException:
-        if token is not None:
-            token.cancel()
-            worker.join()
+        token.cancel()
+        worker.join()
         raise
     if failed:
         raise failed[0]
@@ -345,12 +343,10 @@ def extract_features(pycolmap, database: Path, image_dir: Path, names: list[str]
                      tick=lambda _n=1: None) -> None:
     """SIFT features of the photos ``names`` into ``database``, on one camera (the photos share
     the intrinsics), ``tick`` per photo done."""
-    token = pycolmap.CancellationToken()
-    polled(lambda: pycolmap.extract_features(database, image_dir, image_names=list(names),
-                                             camera_mode=pycolmap.CameraMode.SINGLE, reader_options=reader,
-                                             extraction_options=extraction, device=pycolmap.Device.cpu,
-                                             cancellation_token=token),
-           Path(database), "keypoints", len(names), tick, token)
+    polled(pycolmap, lambda token: pycolmap.extract_features(
+        database, image_dir, image_names=list(names), camera_mode=pycolmap.CameraMode.SINGLE,
+        reader_options=reader, extraction_options=extraction, device=pycolmap.Device.cpu,
+        cancellation_token=token), Path(database), "keypoints", len(names), tick)
 
 
 def spatial_pairs(positions: np.ndarray, neighbours: int, max_distance: float) -> list[tuple[int, int]]:
@@ -389,12 +385,10 @@ def _match_pairs(pycolmap, database: Path, work_dir: Path, names: list[str], pai
     pairs_file.write_text("".join(f"{names[i]} {names[j]}\n" for i, j in pairs))
     pairing = pycolmap.ImportedPairingOptions()
     pairing.match_list_path = pairs_file
-    token = pycolmap.CancellationToken()
     with _stage(progress, "SfM matching", total=len(pairs), unit="pair") as tick:
-        polled(lambda: pycolmap.match_image_pairs(database, matching_options=options, pairing_options=pairing,
-                                                  verification_options=verification, device=pycolmap.Device.cpu,
-                                                  cancellation_token=token),
-               database, "two_view_geometries", len(pairs), tick, token)
+        polled(pycolmap, lambda token: pycolmap.match_image_pairs(
+            database, matching_options=options, pairing_options=pairing, verification_options=verification,
+            device=pycolmap.Device.cpu, cancellation_token=token), database, "two_view_geometries", len(pairs), tick)
 
 
 def _aligned(pycolmap, rec, index: dict, true_centres: np.ndarray) -> SfmModel:
