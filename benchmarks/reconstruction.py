@@ -84,8 +84,8 @@ def main(argv=None):
     parser.add_argument("--tag", default=None, help="write results/reconstruction_TAG.json (runs split over sessions)")
     args = parser.parse_args(argv)
     names = ["gabled"] if args.quick else (args.scenes or list(SCENES))
-    if args.quick:  # a smoke run: small photos, one field draw, ours against the scan only
-        args.width, args.flights, args.draws = 320, ["coverplan", "structure-scan"], 1
+    if args.quick:  # a smoke run: small photos, one field draw, our flight only
+        args.width, args.flights, args.draws = 320, ["coverplan"], 1
         args.conditions, args.textures = ["field"], ["noise"]
     camera = get_camera(CAMERA)
     rows = []

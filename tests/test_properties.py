@@ -24,7 +24,7 @@ from coverplan.world.scene import scene_from_meshes
 from tests.helpers import box
 from tests.independent import polyline_min_distance
 
-EXAMPLES = 60  # two halves of 30; test_random_scene_route_is_safe_many (--slow) draws 1,000
+EXAMPLES = 44  # two halves of 22; test_random_scene_route_is_safe_many (--slow) draws 1,000
 CLAIM_TOLERANCE_PP = 0.1  # how far the planner's coverage figure may exceed the evaluator's
 
 
