@@ -15,7 +15,9 @@ Part 3: flying through (flight/passing.py) on the sample scenes with a Mavic 3 E
 QGroundControl's Structure Scan and the scan plus a nadir roof grid (70/70 overlap) flown
 through by the same model and drone: photos, minutes, path, photos in passing, smooth steps
 (consecutive photos within 10 deg of heading and 5 deg of gimbal pitch) and reversing steps
-(the direction from one photo to the next turns by more than 90 deg) per 100 photos.
+(the direction from one photo to the next turns by more than 90 deg) per 100 photos; and the
+plan with square-on views only (``--view-tilts square``) beside the default, both re-checked
+by the evaluator (coverage at 0.25 m).
 ``--quick``: the ring prism (4 mm/px, 3 m security) at one limit, and three scenes.
 """
 
@@ -30,6 +32,7 @@ from coverplan import evaluate, get_camera, load_scene, plan
 from coverplan.equipment.drones import get_drone
 from coverplan.equipment.flighttime import FlightModel
 from coverplan.evaluation import view_limits
+from coverplan.flight.lanes import route_step_shape
 from coverplan.flight.passing import camera_timing, fly_through
 from plan_scenes import SCENES
 from structure_scan import scan_with_roof_grid, structure_scan
@@ -83,20 +86,6 @@ def model_rows(names) -> list[dict]:
     return rows
 
 
-def step_shape(route) -> tuple[float, float]:
-    """Smooth steps (% of photo-to-photo steps within 10 deg of heading and 5 deg of pitch) and
-    reversing steps per 100 photos (the travel direction turns by more than 90 deg)."""
-    rows = route.shots
-    turn = np.abs((np.diff(route.heading_deg[rows]) + 180.0) % 360.0 - 180.0)
-    tilt = np.abs(np.diff(route.pitch_deg[rows]))
-    smooth = 100.0 * float(np.mean((turn <= 10.0) & (tilt <= 5.0))) if len(rows) > 1 else 100.0
-    step = np.diff(route.positions[rows], axis=0)
-    step = step[np.linalg.norm(step, axis=1) > 1e-6]
-    cos = np.einsum("ij,ij->i", step[:-1], step[1:]) / np.maximum(
-        np.linalg.norm(step[:-1], axis=1) * np.linalg.norm(step[1:], axis=1), 1e-12)
-    return smooth, 100.0 * float((cos < 0).sum()) / max(len(rows), 1)
-
-
 def through_rows(names, gsd: float = 0.004, security: float = 3.0) -> list[dict]:
     drone = get_drone("m3e")
     model = drone.flight_model()
@@ -106,22 +95,27 @@ def through_rows(names, gsd: float = 0.004, security: float = 3.0) -> list[dict]
         scene = load_scene(MESHES / target, [MESHES / o for o in obstacles])
         ours = plan(scene, drone.camera, gsd=gsd, security=security, drone=drone, max_flight_min=1e6)
         timing = camera_timing(drone.camera, drone, model)
-        flights = {"ours": ours, "scan": structure_scan(scene, drone.camera, gsd, security, ours.positions[0]),
+        square = plan(scene, drone.camera, gsd=gsd, security=security, drone=drone, max_flight_min=1e6,
+                      view_tilts="square")
+        flights = {"ours": ours, "square": square,
+                   "scan": structure_scan(scene, drone.camera, gsd, security, ours.positions[0]),
                    "scan+grid": scan_with_roof_grid(scene, drone.camera, gsd, security, ours.positions[0])}
         row = {"scene": name, "ours_stop_min": ours.metrics["flights"][0]["minutes"]}
         for key, route in flights.items():
-            if key == "ours":
-                through = ours.metrics["fly_through"]
+            if key in ("ours", "square"):
+                through = route.metrics["fly_through"]
+                row[f"{key}_coverage_pct"] = evaluate(route, scene).coverage_pct
             else:
                 route.params["drone"] = drone.name
                 through = fly_through(route, scene, view_limits(route, scene), model, **timing)
-            smooth, reverse = step_shape(route)
+            smooth, reverse = route_step_shape(route)
             row.update({f"{key}_photos": int(route.shot.sum()), f"{key}_min": through["minutes"],
                         f"{key}_path_m": route.path_length, f"{key}_passing_pct":
                         100.0 * through["photos_in_passing"] / max(int(route.shot.sum()), 1),
                         f"{key}_smooth_pct": smooth, f"{key}_reversals_per_100": reverse})
         row["through_vs_stop"] = row["ours_min"] / row["ours_stop_min"]
         row["ours_vs_grid_min"] = row["ours_min"] / row["scan+grid_min"]
+        row["square_vs_grid_min"] = row["square_min"] / row["scan+grid_min"]
         rows.append(row)
         print(f"  flew {name}", flush=True)
     return rows
@@ -155,6 +149,16 @@ def main(argv=None):
                           ("scan+grid_smooth_pct", "scan+grid smooth %", ".0f"),
                           ("scan+grid_reversals_per_100", "scan+grid rev/100", ".0f"),
                           ("through_vs_stop", "through/stop", ".2f"), ("ours_vs_grid_min", "ours/grid min", ".2f")]))
+    print("--view-tilts square beside the default (varied):")
+    print(table(passing, [("scene", "scene", ""), ("ours_photos", "ours photos", "d"),
+                          ("square_photos", "square photos", "d"), ("ours_min", "ours through min", ".1f"),
+                          ("square_min", "square through min", ".1f"), ("ours_smooth_pct", "ours smooth %", ".0f"),
+                          ("square_smooth_pct", "square smooth %", ".0f"),
+                          ("ours_reversals_per_100", "ours rev/100", ".0f"),
+                          ("square_reversals_per_100", "square rev/100", ".0f"),
+                          ("ours_coverage_pct", "ours @0.25 m %", ".2f"),
+                          ("square_coverage_pct", "square @0.25 m %", ".2f"),
+                          ("square_vs_grid_min", "square/grid min", ".2f")]))
     path = write_json("flights", args.quick, {"rows": splits, "model_vs_simple": timings, "flying_through": passing})
     print(f"written {path}")
 

@@ -263,7 +263,7 @@ def _plan_options(args) -> dict:
                 max_flight_min=args.max_flight_min,
                 lp_time_limit=args.lp_time_limit, surface_classes=args.only, pose_margin=args.margin,
                 keep_out=tuple(args.keep_out), keep_in=tuple(args.keep_in), zone_margin=args.zone_margin,
-                fly=args.fly,
+                fly=args.fly, view_tilts=args.view_tilts,
                 max_memory=None if args.max_memory_gb is None
                 else check_positive("--max-memory-gb", args.max_memory_gb) * 1e9)
 
@@ -484,6 +484,9 @@ def _add_planning_args(p):
                    help="through (default): take photos in passing where the turn, motion blur, the photo interval "
                         "and the heading and gimbal turns allow it, and stop elsewhere (docs/flights.md); "
                         "stop: stop at every waypoint. The photos are the same")
+    p.add_argument("--view-tilts", choices=["varied", "square"], default="varied",
+                   help="varied (default): candidate views square-on to the surface and tilted off it; square: "
+                        "square-on only, so photos along a wall share one heading (docs/flights.md, \"Lanes\")")
     p.add_argument("--min-views", type=int, default=None, help="views per surface point (default 3; thesis rule 2)")
     p.add_argument("--min-triangulation-deg", type=float, default=5.0)
     p.add_argument("--max-pair-deg", type=float, default=None, metavar="DEG",

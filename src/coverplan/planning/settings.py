@@ -17,6 +17,7 @@ from coverplan.world.zones import Zones
 
 RULES = ("sfm", "thesis")
 FLY = ("through", "stop")
+VIEW_TILTS = ("varied", "square")
 DEFAULT_CEILING_M = 120.0  # EU (EASA open category), UK CAA, US FAA Part 107: 120 m / 400 ft above the ground
 
 
@@ -82,6 +83,12 @@ class PlanSettings:
         stops at every waypoint. The shots are the same either way.
     pass_rules : PassRules
         Blur, photo offset, turn and speed limits of flying through.
+    view_tilts : {"varied", "square"}
+        The candidates' view directions. "varied" faces each wall from the façade rings at
+        three headings (square-on and a third of the field of view either side) and looks
+        along each surface normal and 30 deg off it four ways; "square" keeps only the
+        square-on views, so photos along a wall share one heading (a step toward lanes,
+        docs/flights.md).
     existing : ExistingShots or None
         Photos already taken (shots/existing.py): their views count toward every rule and the
         new flight takes only what they do not give.
@@ -109,6 +116,7 @@ class PlanSettings:
     zone_margin: float | None = None
     fly: str = "through"
     pass_rules: PassRules = field(default_factory=PassRules)
+    view_tilts: str = "varied"
     existing: ExistingShots | None = None
 
     def __post_init__(self):
@@ -121,6 +129,8 @@ class PlanSettings:
             raise ParameterError(f"rule must be one of {', '.join(RULES)}, got {self.rule!r}")
         if self.fly not in FLY:
             raise ParameterError(f"fly must be one of {', '.join(FLY)}, got {self.fly!r}")
+        if self.view_tilts not in VIEW_TILTS:
+            raise ParameterError(f"view tilts must be one of {', '.join(VIEW_TILTS)}, got {self.view_tilts!r}")
         if self.pose_margin not in MARGINS:
             raise ParameterError(f"pose margin must be one of {', '.join(MARGINS)}, got {self.pose_margin!r}")
         min_views = (3 if self.rule == "sfm" else 2) if self.min_views is None else self.min_views

@@ -26,6 +26,7 @@ from coverplan.flight.battery import (
     transit_headings,
     waypoint_times,
 )
+from coverplan.flight.lanes import route_step_shape
 from coverplan.flight.passing import camera_timing, fly_through
 from coverplan.flight.pathing import (
     FlightGraph,
@@ -206,8 +207,9 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
     with progress.stage("reachability"):
         reach = reachability(scene, samples, limits)
     with progress.stage("candidate viewpoints"):
-        cands = facade_rings(scene, camera, limits, setup.standoff, setup.spacing).concat(
-            along_normals(samples, limits, camera, setup.standoff)).concat(
+        tilted = settings.view_tilts == "varied"
+        cands = facade_rings(scene, camera, limits, setup.standoff, setup.spacing, tilted=tilted).concat(
+            along_normals(samples, limits, camera, setup.standoff, n_tilts=4 if tilted else 0)).concat(
             under_overhangs(samples, limits, camera, setup.extra_clearance))
         cands = keep_safe(scene, cands, limits, setup.extra_clearance)
 
@@ -479,6 +481,8 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
     if settings.surface_classes:
         params["surface_classes"] = list(settings.surface_classes)
     params["rule"] = settings.rule
+    if settings.view_tilts != "varied":
+        params["view_tilts"] = settings.view_tilts
     if match is not None:
         params.update({"max_pair_deg": match.max_pair_deg, "min_overlap": match.min_overlap,
                        "min_neighbours": match.min_neighbours, "sharp_views": match.sharp_views,
@@ -525,6 +529,7 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
         "single_flight_path_m": flight.single_flight_path_m,
         "single_flight_min": flight.single_flight_s / 60.0,
     }
+    route.metrics["smooth_steps_pct"], route.metrics["reversals_per_100"] = route_step_shape(route)
     if through is not None:
         route.metrics["fly_through"] = through
     if settings.existing is not None:

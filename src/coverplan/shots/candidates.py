@@ -90,11 +90,14 @@ def slice_heights(scene, limits: ViewLimits, camera, distance: float, spacing: f
     return np.arange(start, top + step * 0.5, step)
 
 
-def facade_rings(scene, camera, limits: ViewLimits, distance: float, spacing: float = 0.0) -> Candidates:
-    """Cameras on the target's horizontal sections offset by ``distance``, facing the walls."""
+def facade_rings(scene, camera, limits: ViewLimits, distance: float, spacing: float = 0.0,
+                 tilted: bool = True) -> Candidates:
+    """Cameras on the target's horizontal sections offset by ``distance``, facing the walls
+    square-on and, when ``tilted``, a third of the field of view either side."""
     width = camera.footprint(distance)[0]
     step = max(width / 4.0, spacing)
     tilt = min(camera.hfov_deg / 3.0, 30.0)
+    tilts = (-tilt, 0.0, tilt) if tilted else (0.0,)
     positions, dirs = [], []
     heights = slice_heights(scene, limits, camera, distance, spacing)
     # A slice above the roof walks the section just under the roof.
@@ -108,7 +111,7 @@ def facade_rings(scene, camera, limits: ViewLimits, distance: float, spacing: fl
             if len(pts) == 0:
                 continue
             pos3 = np.column_stack([pts, np.full(len(pts), z)])
-            for t in (-tilt, 0.0, tilt):
+            for t in tilts:
                 a = np.radians(t)
                 inward = -outward
                 rot = np.column_stack([inward[:, 0] * np.cos(a) - inward[:, 1] * np.sin(a),

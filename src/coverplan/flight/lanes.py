@@ -1,0 +1,53 @@
+"""How a flight reads to a pilot: smooth steps and reversals between consecutive photos.
+
+A flight in lanes runs along a façade or round the building with a steady heading; a
+scribble turns the camera and turns back at every photo. Two figures tell them apart:
+
+- a *smooth step* joins two consecutive photos whose heading differs by at most 10 deg and
+  whose gimbal pitch by at most 5 deg;
+- a *reversal* is a photo where the direction of travel turns by more than 90 deg (the step
+  to it and the step from it point in opposite half-spaces).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+SMOOTH_HEADING_DEG = 10.0
+SMOOTH_PITCH_DEG = 5.0
+
+
+def step_shape(positions, heading_deg, pitch_deg) -> tuple[float, float]:
+    """Smooth steps and reversals of photos taken in this order.
+
+    Parameters
+    ----------
+    positions : (n, 3) float
+        Photo positions in flight order.
+    heading_deg, pitch_deg : (n,) float
+        Their headings and gimbal pitches.
+
+    Returns
+    -------
+    smooth_pct : float
+        Percent of the n - 1 steps that are smooth (100 for fewer than two photos).
+    reversals_per_100 : float
+        Reversals per 100 photos; steps of no length are skipped.
+    """
+    positions = np.asarray(positions, float).reshape(-1, 3)
+    n = len(positions)
+    if n < 2:
+        return 100.0, 0.0
+    turn = np.abs((np.diff(np.asarray(heading_deg, float)) + 180.0) % 360.0 - 180.0)
+    tilt = np.abs(np.diff(np.asarray(pitch_deg, float)))
+    smooth = 100.0 * float(np.mean((turn <= SMOOTH_HEADING_DEG) & (tilt <= SMOOTH_PITCH_DEG)))
+    step = np.diff(positions, axis=0)
+    step = step[np.linalg.norm(step, axis=1) > 1e-6]
+    back = np.einsum("ij,ij->i", step[:-1], step[1:]) < 0.0
+    return smooth, 100.0 * float(back.sum()) / n
+
+
+def route_step_shape(route) -> tuple[float, float]:
+    """``step_shape`` of a Route's photos in flight order (waypoints without a photo skipped)."""
+    rows = route.shots
+    return step_shape(route.positions[rows], route.heading_deg[rows], route.pitch_deg[rows])

@@ -1,0 +1,83 @@
+"""Flights that read as lanes: the step figures, and square-on views (issue 33, part 2)."""
+
+import json
+
+import numpy as np
+import pytest
+
+from coverplan import evaluate, get_camera, load_scene, plan
+from coverplan.cli import main
+from coverplan.flight.lanes import route_step_shape, step_shape
+from coverplan.shots.candidates import facade_rings
+from coverplan.shots.reachability import scene_limits
+from coverplan.world.scene import scene_from_meshes
+from tests.helpers import MESHES, box
+from tests.independent import polyline_min_distance
+
+SECURITY = 3.0
+
+
+def test_step_figures_on_flights_whose_answer_is_known():
+    # Along a wall at one heading: every step smooth, never turning back.
+    x = np.arange(6.0)
+    lane = np.column_stack([x, np.zeros(6), np.full(6, 5.0)])
+    assert step_shape(lane, np.full(6, 90.0), np.zeros(6)) == (100.0, 0.0)
+    # 355 -> 5 deg is a 10 deg turn across north (smooth); 5 -> 16 is not; a 6 deg pitch step is not.
+    smooth, _ = step_shape(lane[:4], [355.0, 5.0, 16.0, 16.0], [0.0, 0.0, 0.0, -6.0])
+    assert smooth == pytest.approx(100.0 / 3)
+    # There and back twice: the photos at x = 2 and x = 0 turn the drone round.
+    there_back = np.array([[0, 0, 5], [1, 0, 5], [2, 0, 5], [1, 0, 5], [0, 0, 5], [1, 0, 5]], float)
+    _, reversals = step_shape(there_back, np.zeros(6), np.zeros(6))
+    assert reversals == pytest.approx(100.0 * 2 / 6)
+    # A right angle is no reversal; a photo taken twice at one place is skipped, not a turn.
+    corner = np.array([[0, 0, 5], [1, 0, 5], [1, 0, 5], [1, 1, 5]], float)
+    assert step_shape(corner, np.zeros(4), np.zeros(4))[1] == 0.0
+
+
+def test_square_ring_candidates_face_their_wall_square_on():
+    scene = scene_from_meshes([box(0, 0, 0, 20, 10, 8)], [])
+    camera = get_camera("phantom4pro")
+    limits = scene_limits(scene, security=SECURITY, d_opt=12.0, max_incidence_deg=70.0, min_altitude=SECURITY,
+                          pitch_range_deg=(-90.0, 30.0), vfov_deg=camera.vfov_deg)
+    square = facade_rings(scene, camera, limits, 8.0, tilted=False)
+    varied = facade_rings(scene, camera, limits, 8.0)
+    assert len(varied) == 3 * len(square)
+    p, h = square.positions, square.heading_deg
+    # Beside a wall (not on the rounded corners of the offset ring) a camera looks straight at it.
+    south = (p[:, 1] < -7.9) & (p[:, 0] > 0) & (p[:, 0] < 20)
+    east = (p[:, 0] > 27.9) & (p[:, 1] > 0) & (p[:, 1] < 10)
+    assert south.sum() >= 3 and east.sum() >= 2
+    assert np.allclose(h[south], 0.0, atol=1e-6) and np.allclose(h[east], 270.0, atol=1e-6)
+    assert np.allclose(square.pitch_deg, 0.0)
+
+
+@pytest.fixture(scope="module")
+def gabled():
+    scene = load_scene(MESHES / "gabled_house.obj")
+    camera = get_camera("phantom4pro")
+    return scene, {tilts: plan(scene, camera, gsd=0.004, security=SECURITY, view_tilts=tilts)
+                   for tilts in ("varied", "square")}
+
+
+def test_square_views_keep_every_guarantee_and_fly_smoother(gabled):
+    scene, routes = gabled
+    square, varied = routes["square"], routes["varied"]
+    ev = evaluate(square, scene)  # fresh samples every 0.25 m, the rules re-checked
+    m = ev.metrics
+    assert m["coverage_pct"] >= 99.5 and square.metrics["planned_coverage_pct"] <= m["coverage_pct"] + 0.1
+    assert m["safe"] and polyline_min_distance(square.positions, scene.meshes, SECURITY / 10) >= SECURITY
+    assert m["shot_graph"]["components"] == 1
+    smooth, reversals = route_step_shape(square)
+    assert (smooth, reversals) == (square.metrics["smooth_steps_pct"], square.metrics["reversals_per_100"])
+    # Photos along a wall share a heading: many more smooth steps than the varied views give.
+    assert smooth >= route_step_shape(varied)[0] + 15.0
+    assert square.params["view_tilts"] == "square" and "view_tilts" not in varied.params
+
+
+def test_view_tilts_flag_reaches_the_route_and_the_summary(tmp_path, capsys):
+    out = tmp_path / "route.json"
+    code = main(["plan", str(MESHES / "square_prism.obj"), "--gsd", "0.004", "--security", "3", "--camera",
+                 "phantom4pro", "--view-tilts", "square", "-o", str(out)])
+    assert code == 0
+    assert "view tilts square" in capsys.readouterr().out
+    assert json.loads(out.read_text())["params"]["view_tilts"] == "square"
