@@ -39,7 +39,7 @@ def test_square_ring_candidates_face_their_wall_square_on():
     camera = get_camera("phantom4pro")
     limits = scene_limits(scene, security=SECURITY, d_opt=12.0, max_incidence_deg=70.0, min_altitude=SECURITY,
                           pitch_range_deg=(-90.0, 30.0), vfov_deg=camera.vfov_deg)
-    square = facade_rings(scene, camera, limits, 8.0, tilted=False)
+    square = facade_rings(scene, camera, limits, 8.0, tilted="none")
     varied = facade_rings(scene, camera, limits, 8.0)
     assert len(varied) == 3 * len(square)
     p, h = square.positions, square.heading_deg
@@ -81,3 +81,38 @@ def test_view_tilts_flag_reaches_the_route_and_the_summary(tmp_path, capsys):
     assert code == 0
     assert "view tilts square" in capsys.readouterr().out
     assert json.loads(out.read_text())["params"]["view_tilts"] == "square"
+
+
+def test_corner_ring_candidates_are_tilted_only_where_the_ring_turns():
+    scene = scene_from_meshes([box(0, 0, 0, 20, 10, 8)], [])
+    camera = get_camera("phantom4pro")
+    limits = scene_limits(scene, security=SECURITY, d_opt=12.0, max_incidence_deg=70.0, min_altitude=SECURITY,
+                          pitch_range_deg=(-90.0, 30.0), vfov_deg=camera.vfov_deg)
+    square = facade_rings(scene, camera, limits, 8.0, tilted="none")
+    corners = facade_rings(scene, camera, limits, 8.0, tilted="corners")
+    varied = facade_rings(scene, camera, limits, 8.0, tilted="all")
+    assert len(square) < len(corners) < len(varied)
+    # The square-on views are all there; a tilted one stands where the ring rounds a corner or
+    # within two ring steps of it, never mid-wall.
+    key = np.round(np.column_stack([corners.positions, corners.heading_deg]), 6)
+    assert len(np.unique(key, axis=0)) == len(corners)
+    p = corners.positions
+    inward = np.column_stack([np.sin(np.radians(corners.heading_deg)), np.cos(np.radians(corners.heading_deg))])
+    nearest = np.clip(p[:, :2], [0, 0], [20, 10]) - p[:, :2]
+    off = np.degrees(np.arccos(np.clip(np.einsum("ij,ij->i", inward, nearest / np.linalg.norm(nearest, axis=1,
+                                                                                            keepdims=True)), -1, 1)))
+    tilted = off > 1.0
+    assert tilted.any()
+    beside = (p[:, 0] > 0) & (p[:, 0] < 20) | (p[:, 1] > 0) & (p[:, 1] < 10)
+    step = camera.footprint(8.0)[0] / 4.0
+    # Mid-wall: more than three ring steps from both ends of the wall.
+    mid = beside & (np.where((p[:, 0] > 0) & (p[:, 0] < 20), np.minimum(p[:, 0], 20 - p[:, 0]),
+                             np.minimum(p[:, 1], 10 - p[:, 1])) > 3 * step)
+    assert not (tilted & mid).any()
+
+
+def test_fewer_tilts_warn_that_links_across_corners_need_a_field_simulate(gabled):
+    _, routes = gabled
+    assert not any("view tilts" in n for n in routes["varied"].extra["notes"])
+    assert any(n.startswith("WARNING view tilts square") and "simulate --conditions field" in n
+               for n in routes["square"].extra["notes"])

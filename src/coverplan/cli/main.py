@@ -484,9 +484,10 @@ def _add_planning_args(p):
                    help="through (default): take photos in passing where the turn, motion blur, the photo interval "
                         "and the heading and gimbal turns allow it, and stop elsewhere (docs/flights.md); "
                         "stop: stop at every waypoint. The photos are the same")
-    p.add_argument("--view-tilts", choices=["varied", "square"], default="varied",
-                   help="varied (default): candidate views square-on to the surface and tilted off it; square: "
-                        "square-on only, so photos along a wall share one heading (docs/flights.md, \"Lanes\")")
+    p.add_argument("--view-tilts", choices=["varied", "corners", "square"], default="varied",
+                   help="varied (default): candidate views square-on to the surface and tilted off it; corners: "
+                        "tilted only where the façade rings turn a corner; square: square-on only, so photos "
+                        "along a wall share one heading (docs/flights.md, \"Lanes\")")
     p.add_argument("--min-views", type=int, default=None, help="views per surface point (default 3; thesis rule 2)")
     p.add_argument("--min-triangulation-deg", type=float, default=5.0)
     p.add_argument("--max-pair-deg", type=float, default=None, metavar="DEG",

@@ -17,7 +17,7 @@ from coverplan.world.zones import Zones
 
 RULES = ("sfm", "thesis")
 FLY = ("through", "stop")
-VIEW_TILTS = ("varied", "square")
+VIEW_TILTS = ("varied", "corners", "square")
 DEFAULT_CEILING_M = 120.0  # EU (EASA open category), UK CAA, US FAA Part 107: 120 m / 400 ft above the ground
 
 
@@ -83,11 +83,12 @@ class PlanSettings:
         stops at every waypoint. The shots are the same either way.
     pass_rules : PassRules
         Blur, photo offset, turn and speed limits of flying through.
-    view_tilts : {"varied", "square"}
+    view_tilts : {"varied", "corners", "square"}
         The candidates' view directions. "varied" faces each wall from the façade rings at
         three headings (square-on and a third of the field of view either side) and looks
         along each surface normal and 30 deg off it four ways; "square" keeps only the
-        square-on views, so photos along a wall share one heading (a step toward lanes,
+        square-on views, so photos along a wall share one heading; "corners" is "square"
+        with the rings' tilted views kept where a ring turns a corner (steps toward lanes,
         docs/flights.md).
     existing : ExistingShots or None
         Photos already taken (shots/existing.py): their views count toward every rule and the

@@ -207,9 +207,10 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
     with progress.stage("reachability"):
         reach = reachability(scene, samples, limits)
     with progress.stage("candidate viewpoints"):
-        tilted = settings.view_tilts == "varied"
-        cands = facade_rings(scene, camera, limits, setup.standoff, setup.spacing, tilted=tilted).concat(
-            along_normals(samples, limits, camera, setup.standoff, n_tilts=4 if tilted else 0)).concat(
+        ring_tilts = {"varied": "all", "corners": "corners", "square": "none"}[settings.view_tilts]
+        cands = facade_rings(scene, camera, limits, setup.standoff, setup.spacing, tilted=ring_tilts).concat(
+            along_normals(samples, limits, camera, setup.standoff,
+                          n_tilts=4 if settings.view_tilts == "varied" else 0)).concat(
             under_overhangs(samples, limits, camera, setup.extra_clearance))
         cands = keep_safe(scene, cands, limits, setup.extra_clearance)
 
@@ -476,6 +477,10 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
     if shortfall:
         notes.append(f"WARNING {shortfall}: a position error that large can bring the drone closer than the "
                      "security distance")
+    if settings.view_tilts != "varied":
+        notes.append(f"WARNING view tilts {settings.view_tilts}: with fewer tilted views the links across corners "
+                     "are weaker than the link test counts (a field simulate of the gabled house split in two); "
+                     "run coverplan simulate --conditions field before flying it")
     if setup.max_flight_min is not None:
         params["max_flight_min"] = setup.max_flight_min
     if settings.surface_classes:
