@@ -34,13 +34,18 @@ def test_step_figures_on_flights_whose_answer_is_known():
     assert step_shape(corner, np.zeros(4), np.zeros(4))[1] == 0.0
 
 
-def test_square_ring_candidates_face_their_wall_square_on():
+def box_rings(view_tilts: str):
+    """The façade-ring candidates 8 m out from a 20 x 10 x 8 m box, and the camera."""
     scene = scene_from_meshes([box(0, 0, 0, 20, 10, 8)], [])
     camera = get_camera("phantom4pro")
     limits = scene_limits(scene, security=SECURITY, d_opt=12.0, max_incidence_deg=70.0, min_altitude=SECURITY,
                           pitch_range_deg=(-90.0, 30.0), vfov_deg=camera.vfov_deg)
-    square = facade_rings(scene, camera, limits, 8.0, tilted="none")
-    varied = facade_rings(scene, camera, limits, 8.0)
+    return facade_rings(scene, camera, limits, 8.0, view_tilts=view_tilts), camera
+
+
+def test_square_ring_candidates_face_their_wall_square_on():
+    square, _ = box_rings("square")
+    varied, _ = box_rings("varied")
     assert len(varied) == 3 * len(square)
     p, h = square.positions, square.heading_deg
     # Beside a wall (not on the rounded corners of the offset ring) a camera looks straight at it.
@@ -84,13 +89,9 @@ def test_view_tilts_flag_reaches_the_route_and_the_summary(tmp_path, capsys):
 
 
 def test_corner_ring_candidates_are_tilted_only_where_the_ring_turns():
-    scene = scene_from_meshes([box(0, 0, 0, 20, 10, 8)], [])
-    camera = get_camera("phantom4pro")
-    limits = scene_limits(scene, security=SECURITY, d_opt=12.0, max_incidence_deg=70.0, min_altitude=SECURITY,
-                          pitch_range_deg=(-90.0, 30.0), vfov_deg=camera.vfov_deg)
-    square = facade_rings(scene, camera, limits, 8.0, tilted="none")
-    corners = facade_rings(scene, camera, limits, 8.0, tilted="corners")
-    varied = facade_rings(scene, camera, limits, 8.0, tilted="all")
+    square, _ = box_rings("square")
+    corners, camera = box_rings("corners")
+    varied, _ = box_rings("varied")
     assert len(square) < len(corners) < len(varied)
     # The square-on views are all there; a tilted one stands where the ring rounds a corner or
     # within two ring steps of it, never mid-wall.

@@ -11,13 +11,13 @@ from coverplan.equipment.camera import Camera, check_positive
 from coverplan.equipment.margin import MARGINS
 from coverplan.errors import ParameterError, PlanningError
 from coverplan.flight.passing import PassRules
+from coverplan.shots.candidates import VIEW_TILTS
 from coverplan.shots.existing import ExistingShots
 from coverplan.shots.reconstructability import MatchRule
 from coverplan.world.zones import Zones
 
 RULES = ("sfm", "thesis")
 FLY = ("through", "stop")
-VIEW_TILTS = ("varied", "corners", "square")
 DEFAULT_CEILING_M = 120.0  # EU (EASA open category), UK CAA, US FAA Part 107: 120 m / 400 ft above the ground
 
 

@@ -207,8 +207,8 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
     with progress.stage("reachability"):
         reach = reachability(scene, samples, limits)
     with progress.stage("candidate viewpoints"):
-        ring_tilts = {"varied": "all", "corners": "corners", "square": "none"}[settings.view_tilts]
-        cands = facade_rings(scene, camera, limits, setup.standoff, setup.spacing, tilted=ring_tilts).concat(
+        cands = facade_rings(scene, camera, limits, setup.standoff, setup.spacing,
+                             view_tilts=settings.view_tilts).concat(
             along_normals(samples, limits, camera, setup.standoff,
                           n_tilts=4 if settings.view_tilts == "varied" else 0)).concat(
             under_overhangs(samples, limits, camera, setup.extra_clearance))

@@ -90,20 +90,22 @@ def slice_heights(scene, limits: ViewLimits, camera, distance: float, spacing: f
     return np.arange(start, top + step * 0.5, step)
 
 
-RING_TILTS = ("all", "corners", "none")
+VIEW_TILTS = ("varied", "corners", "square")  # PlanSettings.view_tilts
 CORNER_REACH = 2  # ring points either side of a turn that keep their tilted views under "corners"
 
 
 def facade_rings(scene, camera, limits: ViewLimits, distance: float, spacing: float = 0.0,
-                 tilted: str = "all") -> Candidates:
+                 view_tilts: str = "varied") -> Candidates:
     """Cameras on the target's horizontal sections offset by ``distance``, facing the walls
-    square-on and a third of the field of view either side: everywhere (``tilted`` "all"),
-    only where the ring turns and CORNER_REACH points either side ("corners"), or nowhere
-    ("none")."""
+    square-on and a third of the field of view either side: everywhere (``view_tilts``
+    "varied"), only where the ring turns and CORNER_REACH points either side ("corners"), or
+    nowhere ("square")."""
+    if view_tilts not in VIEW_TILTS:
+        raise ValueError(f"view_tilts must be one of {VIEW_TILTS}, got {view_tilts!r}")
     width = camera.footprint(distance)[0]
     step = max(width / 4.0, spacing)
     tilt = min(camera.hfov_deg / 3.0, 30.0)
-    tilts = (-tilt, 0.0, tilt) if tilted != "none" else (0.0,)
+    tilts = (0.0,) if view_tilts == "square" else (-tilt, 0.0, tilt)
     positions, dirs = [], []
     heights = slice_heights(scene, limits, camera, distance, spacing)
     # A slice above the roof walks the section just under the roof.
@@ -117,13 +119,14 @@ def facade_rings(scene, camera, limits: ViewLimits, distance: float, spacing: fl
             if len(pts) == 0:
                 continue
             pos3 = np.column_stack([pts, np.full(len(pts), z)])
-            keep = _near_turns(outward, CORNER_REACH) if tilted == "corners" else np.ones(len(pts), dtype=bool)
+            every = np.ones(len(pts), dtype=bool)
+            turns = _near_turns(outward, CORNER_REACH) if view_tilts == "corners" else every
             for t in tilts:
                 a = np.radians(t)
                 inward = -outward
                 rot = np.column_stack([inward[:, 0] * np.cos(a) - inward[:, 1] * np.sin(a),
                                        inward[:, 0] * np.sin(a) + inward[:, 1] * np.cos(a)])
-                at = keep if t else np.ones(len(pts), dtype=bool)
+                at = turns if t else every
                 positions.append(pos3[at])
                 dirs.append(np.column_stack([rot, np.zeros(len(rot))])[at])
     if not positions:
@@ -324,13 +327,12 @@ def _walk(ring_and_kind, step: float):
 def _near_turns(outward, reach: int, min_turn_deg: float = 2.0) -> np.ndarray:
     """(n,) bool: points of a closed ring whose outward normal turns by more than
     ``min_turn_deg`` to a neighbour's, and ``reach`` points either side of them."""
-    n = len(outward)
     turn = np.einsum("ij,ij->i", outward, np.roll(outward, -1, axis=0)) < np.cos(np.radians(min_turn_deg))
     turning = turn | np.roll(turn, 1)  # both ends of a turning step
     near = turning.copy()
     for k in range(1, reach + 1):
         near |= np.roll(turning, k) | np.roll(turning, -k)
-    return near if n else turning
+    return near
 
 
 def thin(points, normals, cell: float) -> np.ndarray:
