@@ -125,12 +125,12 @@ def test_planner_claims_recheck(planned):
 
 
 def test_shots_near_the_lp_bound(planned):
-    """The covering shots stay near the LP bound; the SfM rule's sharp-view and linking shots come on top
-    (and redundant shots go: counted back to find what the cover chose)."""
+    """The covering shots (with their sharp views, chosen with them) stay near the LP bound; the SfM
+    rule's linking shots come on top (and redundant shots go: counted back to find what the cover chose)."""
     for name, (_scene, route, _ev) in planned.items():
         bound = route.metrics["lp_lower_bound_shots"]
         m = route.metrics
-        covering = (m["selected_views"] + m.get("redundant_shots_dropped", 0) - m["linking_shots"]
+        covering = (m["selected_views"] + m["redundant_shots_dropped"] + m["trimmed_shots"] - m["linking_shots"]
                     - m["repair_shots"] - m["sharp_view_shots"])
         assert bound is not None and covering <= 1.3 * bound, (name, covering, bound)
         assert route.metrics["linking_shots"] <= covering, name

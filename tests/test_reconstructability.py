@@ -115,6 +115,33 @@ def test_faces_links_of_some_rows_are_the_whole_graphs():
         assert (part == (whole.toarray() * touches)).all()
 
 
+def test_samples_links_are_the_count_sample_by_sample(monkeypatch):
+    """The "samples" link test equals the independent loop over every pair of views of every
+    sample (tests/independent.py), for the whole graph and for some rows, also when its pairs
+    are judged in chunks of a few samples."""
+    from coverplan.shots import reconstructability
+    from tests.independent import per_sample_links
+    rng = np.random.default_rng(8)
+    points, normals = _corner()
+    positions = np.column_stack([rng.uniform(-6, 9, 40), rng.uniform(-9, 6, 40), rng.uniform(0, 4, 40)])
+    positions = positions[(positions[:, 0] > 0.5) | (positions[:, 1] < -0.5)]
+    n = len(positions)
+    facing = np.einsum("ijk,jk->ij", positions[:, None, :] - points[None], normals) > 0
+    vis = sp.csr_matrix(facing & (rng.random(facing.shape) < 0.8))
+    cam, pt = vis.nonzero()
+    rule = MatchRule(link_test="samples")
+    exact = per_sample_links(positions, cam, pt, points, normals, rule.max_pair_deg, 60.0, rule.min_overlap)
+    assert 10 < exact.sum() < n * (n - 1)  # some pairs link, not all
+    for chunk in (reconstructability.PAIRS_PER_CHUNK, 50):
+        monkeypatch.setattr(reconstructability, "PAIRS_PER_CHUNK", chunk)
+        assert (shot_links(vis, positions, points, rule, normals=normals) == exact).all()
+        rows = rng.choice(n, n // 3, replace=False)
+        part = candidate_links(vis, positions, points, rule, rows=rows, normals=normals).toarray() > 0
+        touches = np.zeros((n, n), dtype=bool)
+        touches[rows] = touches[:, rows] = True
+        assert (part == (exact & touches)).all()
+
+
 @pytest.mark.parametrize("mesh", ["gabled_house.obj", "l_prism.obj"])
 def test_faces_links_are_links_sample_by_sample(mesh):
     """The planner's face-by-face links, re-checked sample by sample on the evaluator's samples
@@ -358,7 +385,7 @@ def test_default_plan_sees_every_face_squarely_where_it_can():
     camera = get_camera("phantom4pro")
     # the shots' choice is what is judged: photos taken where they are planned (no turns cut)
     sharp = plan(scene, camera, gsd=0.004, security=3.0, fly="stop")
-    assert sharp.params["sharp_views"] == 1 and sharp.metrics["sharp_view_shots"] > 0
+    assert sharp.params["sharp_views"] == 1  # asked of the cover itself, so few or no shots are added for it
     best = _best_incidence(sharp, mesh, points, normals)
     imaged = np.isfinite(best)
     assert imaged.mean() > 0.99
@@ -419,3 +446,41 @@ def test_cli_link_test_is_kept_in_the_route_and_applied_by_evaluate(tmp_path):
     # The evaluator judges the links by the route's own test. (Its verdict is not asserted: on
     # this prism it finds the faces plan in two pieces, docs/reconstruction.md.)
     assert evaluate(route, scene).metrics["shot_graph"]["link_test"] == "faces"
+
+
+def test_pieces_are_joined_through_the_chains_already_added():
+    """Three pieces of two shots (A: 0-1, B: 2-3, C: 4-5) and candidates: p joins A and B,
+    r - s joins A and C, z joins B and C. Chained one by one from A along shortest chains,
+    B comes through p and C through r and s (3 shots; through p, B and z it is one hop
+    longer). Joining the nearest piece first and then searching from the grown piece takes
+    p, then z: 2 shots. The lean selection (the "samples" link test) keeps the fewer."""
+    n = 10
+    p, r, s, z = 6, 7, 8, 9
+    edges = [(0, 1), (2, 3), (4, 5), (0, p), (p, 2), (1, r), (r, s), (s, 4), (3, z), (z, 5)]
+    rows, cols = zip(*edges)
+    links = sp.coo_matrix((np.ones(len(edges)), (rows, cols)), shape=(n, n))
+    links = (links + links.T).tocsr()
+    start = np.array([0, 1, 2, 3, 4, 5])
+    lean = connect_shots(None, None, None, start, MatchRule(min_neighbours=1, link_test="samples"), links=links)
+    assert sorted(lean.tolist()) == [0, 1, 2, 3, 4, 5, p, z]
+    # the other link tests keep the classic chains (stages.lean)
+    classic = connect_shots(None, None, None, start, MatchRule(min_neighbours=1), links=links)
+    assert sorted(classic.tolist()) == [0, 1, 2, 3, 4, 5, p, r, s]
+
+
+def test_lean_plan_under_the_samples_link_test_keeps_its_claims():
+    """Gabled house, ``--link-test samples`` (the lean selection, stages.lean): fewer photos than
+    the default plan, and the evaluator, on samples of its own, finds the coverage, the sharp
+    views, every photo's two neighbours and no photo the links hang on, judged sample by sample."""
+    from coverplan import load_scene
+    from tests.helpers import MESHES
+    scene = load_scene(MESHES / "gabled_house.obj")
+    camera = get_camera("phantom4pro")
+    default = plan(scene, camera, gsd=0.004, security=3.0)
+    lean = plan(scene, camera, gsd=0.004, security=3.0, match=MatchRule(link_test="samples"))
+    assert default.metrics["trimmed_shots"] == 0 and lean.params["link_test"] == "samples"
+    assert len(lean.shots) < 0.9 * len(default.shots)
+    ev = evaluate(lean, scene, spacing=0.2, seed=5)
+    assert ev.safe and ev.coverage_pct >= 99.9 and ev.metrics["sharp_view_pct"] >= 99.5
+    g = ev.metrics["shot_graph"]
+    assert g["link_test"] == "samples" and g["shots_short_of_neighbours"] == 0 and g["cut_shots"] == 0, g

@@ -74,3 +74,39 @@ def test_a_pruned_plan_keeps_what_it_claims():
     assert ev.safe and ev.coverage_pct >= m["planned_coverage_pct"] - 0.1
     g = ev.metrics["shot_graph"]
     assert g["components"] == 1 and g["shots_short_of_neighbours"] <= 0.05 * g["shots"], g
+
+
+def test_braced_links_gain_no_cut_shot():
+    # Links form the ring 10 - 11 - 12 - 13 - 10: no shot is a cut. Dropping any one leaves a
+    # chain whose middle shot is the only link between its ends, so braced, none may go.
+    links = np.zeros((4, 4), dtype=bool)
+    for a, b in ((0, 1), (1, 2), (2, 3), (3, 0)):
+        links[a, b] = links[b, a] = True
+    assert drop_redundant(SHOTS, _views(), links=links, min_neighbours=1).tolist() == [10, 11, 12]
+    assert drop_redundant(SHOTS, _views(), links=links, min_neighbours=1, braced=True).tolist() == SHOTS.tolist()
+
+
+def test_spare_views_keep_a_view_more_than_the_rule():
+    # Each sample has four views and three are asked: one can go, but not with one to spare.
+    assert drop_redundant(SHOTS, _views(), spare_views=1).tolist() == SHOTS.tolist()
+    assert drop_redundant(SHOTS, _views(min_views=2), spare_views=1).tolist() == [10, 11, 12]
+
+
+def test_random_braced_drops_keep_the_cut_shots_as_they_were():
+    from coverplan.shots.reconstructability import cut_shots
+    rng = np.random.default_rng(3)
+    dropped_any = 0
+    for _ in range(40):
+        n = 12
+        links = np.triu(rng.random((n, n)) < 0.3, 1)
+        links = links | links.T
+        shots = np.arange(100, 100 + n)
+        views = CheckViews(np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3)), np.zeros(0, bool), 3, 5.0,
+                           35.0)
+        before = set(cut_shots(sp.csr_matrix(links)).tolist())
+        out = drop_redundant(shots, views, links=links, min_neighbours=1, braced=True)
+        keep = np.isin(shots, out)
+        after = np.flatnonzero(keep)[cut_shots(sp.csr_matrix(links[np.ix_(keep, keep)]))]
+        assert set(after.tolist()) <= before
+        dropped_any += int((~keep).sum())
+    assert dropped_any > 0

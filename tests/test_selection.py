@@ -38,3 +38,35 @@ def test_uncoverable_sample_adds_nothing():
     sel = select_views(vis, rays, 3, 5.0, lp_time_limit=0, max_pair_deg=35.0, preset=[0, 1, 2])
     assert sorted(sel.chosen.tolist()) == [0, 1, 2]
     assert not sel.satisfied.any()
+
+
+def test_the_cover_brings_the_wanted_views_along():
+    # Four candidates 10 deg apart see one sample; three views are asked. Alone the cover takes
+    # the first three; with candidate 3 the only wanted (sharp) view it takes that one among
+    # its three instead of needing a fourth afterwards.
+    vis, rays = _problem([0.0, 10.0, 20.0, 30.0])
+    plain = select_views(vis, rays, 3, 5.0, lp_time_limit=0, max_pair_deg=35.0)
+    assert sorted(plain.chosen.tolist()) == [0, 1, 2]
+    wanted = sp.csr_matrix(([1.0], ([3], [0])), shape=(4, 1))
+    joint = select_views(vis, rays, 3, 5.0, lp_time_limit=0, max_pair_deg=35.0, wanted=wanted)
+    assert 3 in joint.chosen.tolist() and len(joint.chosen) == 3 and joint.satisfied.all()
+
+
+def test_every_sample_gets_a_wanted_view_on_random_problems():
+    rng = np.random.default_rng(4)
+    for _ in range(20):
+        n_cand, n_samp = 40, 60
+        vis = sp.random(n_cand, n_samp, density=0.25, random_state=rng, format="csr")
+        vis.data[:] = 1.0
+        vis.sort_indices()
+        a = rng.uniform(0, 40, vis.nnz)
+        rays = np.array([_ray(x) for x in a])
+        wanted = vis.multiply(sp.random(n_cand, n_samp, density=0.3, random_state=rng, format="csr") > 0).tocsr()
+        plain = select_views(vis, rays, 3, 5.0, max_pair_deg=35.0)
+        joint = select_views(vis, rays, 3, 5.0, max_pair_deg=35.0, wanted=wanted)
+        offered = np.asarray(wanted.sum(axis=0)).ravel() > 0
+        got = np.asarray(wanted[joint.chosen].sum(axis=0)).ravel()
+        assert (got[offered] >= 1).all()
+        # the cover's own rule holds as it does without the wanted views
+        assert (joint.satisfied | ~plain.satisfied).all()
+        assert joint.lp_bound >= plain.lp_bound - 1e-6

@@ -502,8 +502,9 @@ def _add_planning_args(p):
     p.add_argument("--link-test", choices=list(LINK_TESTS), default=None,
                    help="sfm rule: how two photos' rays to the surface both see are judged: centroid (default): "
                         "at the centroid of all of it; faces: face by face, each within 60 deg of both photos "
-                        "(links across a corner count only the faces both photos see squarely; experimental: "
-                        "the evaluator finds some such plans in two pieces)")
+                        "(links across a corner count only the faces both photos see squarely); samples: point "
+                        "by point, and the plan is chosen lean (fewer photos; experimental: field-proven on the "
+                        "gabled house only, docs/reconstruction.md)")
     p.add_argument("--sharp-views", type=int, default=None, metavar="N",
                    help="sfm rule: views per surface point within 35 deg of its normal, or as near as any "
                         "safe viewpoint gets plus 5 deg (default 1; 0: none asked)")

@@ -87,8 +87,8 @@ from coverplan.shots.framing import (
     short_of_framing,
     view_fill,
 )
-from coverplan.shots.redundancy import CheckViews, SharpViews, drop_redundant
-from coverplan.shots.relink import relink_on_check
+from coverplan.shots.redundancy import TRIM_SPARE_VIEWS, CheckViews, SharpViews, drop_redundant
+from coverplan.shots.relink import check_views, relink_on_check
 from coverplan.shots.repair import (
     MAX_ROUNDS,
     TARGET_PCT,
@@ -279,17 +279,21 @@ class Selection:
 def select_shots(problem: Problem, setup: Setup, progress: Progress) -> Selection:
     """View selection (covering LP), then sharp views and links for SfM."""
     settings, match = setup.asked, setup.match
+    cam, pt, _ = problem.cover.pairs
+    samples, cands = problem.samples, problem.cover.cands
+    inc = None  # the views' incidences, for the sharp and framed views
+    if match is not None and (match.sharp_views or match.framed_views):
+        inc = incidence_deg(cam, pt, cands.positions, samples.points, samples.normals)
+    # Lean selection (``lean``): the cover is chosen with a sharp view for every sample in view,
+    # not patched with them after.
+    wanted = sharp_view_matrix(cam, pt, inc, len(cands), len(samples)) \
+        if lean(match) and match.sharp_views else None
     with progress.stage("view selection", unit="shot") as update:
         selection = select_views(problem.vis, problem.rays, settings.min_views, setup.min_triangulation_deg,
                                  lp_time_limit=settings.lp_time_limit, progress=update, max_pair_deg=setup.max_pair_deg,
-                                 preset=problem.fixed if len(problem.fixed) else None)
+                                 preset=problem.fixed if len(problem.fixed) else None, wanted=wanted)
     chosen = selection.chosen
     covering = len(chosen)
-    samples, cands = problem.samples, problem.cover.cands
-    cam, pt, _ = problem.cover.pairs
-    inc = None  # the views' incidences, for the sharp and framed views
-    if match is not None and (match.sharp_views or match.framed_views) and len(chosen):
-        inc = incidence_deg(cam, pt, cands.positions, samples.points, samples.normals)
     if match is not None and match.sharp_views and len(chosen):
         with progress.stage("sharp views for SfM"):
             chosen = add_sharp_views(cam, pt, inc, len(cands), samples.area, chosen, views=match.sharp_views)
@@ -327,6 +331,7 @@ class ClosedGaps:
     complete: int
     dropped: int
     check_links: int
+    trimmed: int  # shots the final trim dropped (``_trim``)
 
 
 def close_gaps(problem: Problem, selection: Selection, setup: Setup, progress: Progress) -> ClosedGaps:
@@ -382,7 +387,14 @@ def close_gaps(problem: Problem, selection: Selection, setup: Setup, progress: P
             check_links = len(chosen) - kept
             if check_links:
                 check = closer.check(chosen)
-    return ClosedGaps(cover, chosen, check, closer, history, fine_sharp, complete, dropped, check_links)
+        trimmed = 0
+        if lean(match) and len(chosen) > 2:
+            before = len(chosen)
+            chosen = _trim(cover, closer, chosen, check, coarse, vis, match, problem, setup)
+            trimmed = before - len(chosen)
+            if trimmed:
+                check = closer.kept(check, chosen)
+    return ClosedGaps(cover, chosen, check, closer, history, fine_sharp, complete, dropped, check_links, trimmed)
 
 
 @dataclass(frozen=True)
@@ -514,6 +526,7 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
         "repair_shots": int(max(gaps.complete - picked - gaps.fine_sharp, 0)),
         "redundant_shots_dropped": int(gaps.dropped),
         "check_link_shots": int(gaps.check_links),  # of the linking shots: those the check samples' links asked
+        "trimmed_shots": int(gaps.trimmed),
         "repair_rounds": len(gaps.history) - 1,
         "check_coverage_history_pct": gaps.history,
         "path_length_m": route.path_length,
@@ -582,7 +595,8 @@ def _link_new_shots(vis, positions, samples, chosen, before: int, match: MatchRu
 
 
 def _drop_redundant(cover: CoverProblem, closer: GapCloser, chosen: np.ndarray, covered: np.ndarray,
-                    coarse: int, vis, match: MatchRule, fill: np.ndarray, keep=None) -> np.ndarray:
+                    coarse: int, vis, match: MatchRule, fill: np.ndarray, keep=None, links=None,
+                    braced: bool = False, spare_views: int = 0) -> np.ndarray:
     """``drop_redundant`` keeping the fine check's coverage, the links between the shots, the
     sharp views (on the planner's samples as the sharp-view stage asked them, on the check
     samples a view as square as 35 deg or as the plan's best, docs/reconstruction.md) and the
@@ -611,9 +625,39 @@ def _drop_redundant(cover: CoverProblem, closer: GapCloser, chosen: np.ndarray, 
         inc = incidence_deg(cam, pt, positions, cover.samples.points, normals)
         sharp.append(SharpViews(framed_view_matrix(cam, pt, view_fill(fill, cam, pt, normals), inc, n_cands, coarse),
                                 match.framed_views))
-    links = shot_links(vis[chosen][:, :coarse], positions[chosen], cover.samples.points[:coarse], match,
-                       normals=cover.samples.normals[:coarse])
-    return drop_redundant(chosen, views, sharp, links, match.min_neighbours, keep=keep)
+    if links is None:
+        links = shot_links(vis[chosen][:, :coarse], positions[chosen], cover.samples.points[:coarse], match,
+                           normals=cover.samples.normals[:coarse])
+    return drop_redundant(chosen, views, sharp, links, match.min_neighbours, keep=keep, braced=braced,
+                          spare_views=spare_views)
+
+
+def lean(match: MatchRule | None) -> bool:
+    """Whether the plan is chosen lean: the cover with its sharp views, pieces joined through
+    the chains already added (``connect_shots``), and a final trim (``_trim``). Only under the
+    "samples" link test: under "centroid" the same rules met with fewer photos split the gabled
+    house's model in two field draws of three (its links across corners are not COLMAP's), so
+    those plans keep the slack the classic selection leaves (docs/reconstruction.md)."""
+    return match is not None and match.link_test == "samples"
+
+
+def _trim(cover: CoverProblem, closer: GapCloser, chosen: np.ndarray, check, coarse: int, vis, match: MatchRule,
+          problem: Problem, setup: Setup) -> np.ndarray:
+    """The finished shots less those the rest make redundant, judged as ``_drop_redundant``
+    judges them but on the links of the check samples (as the relink and the bracing judge
+    them), with no new cut photo when the links are braced, and with one view to spare on
+    every check sample a dropped shot covered: the plan keeps a view more than its rule asks
+    wherever it had one, the margin the field runs need (docs/reconstruction.md)."""
+    fine = closer.fine
+    links = candidate_links(check_views(closer, chosen, len(cover.cands)), cover.cands.positions[chosen],
+                            fine.points, match, normals=fine.normals).toarray() > 0
+    np.fill_diagonal(links, False)
+    fill = problem.fill
+    if match.framed_views:
+        added = cover.cands.subset(np.arange(len(fill), len(cover.cands)))
+        fill = np.vstack([fill, _fill_of(cover.scene, added, setup)])
+    return _drop_redundant(cover, closer, chosen, check.covered, coarse, vis, match, fill, keep=problem.fixed,
+                           links=links, braced=match.braced, spare_views=TRIM_SPARE_VIEWS)
 
 
 def _fill_of(scene, cands: Candidates, setup: Setup) -> np.ndarray:

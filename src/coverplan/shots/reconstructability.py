@@ -32,7 +32,10 @@ from coverplan.errors import ParameterError
 # photos see it within LINK_INCIDENCE_DEG of its normal; only the groups that pass count towards
 # the overlap. Across a corner the centroid lies inside the building, where two photos on
 # either side look alike, although on each face one of them sees the wall edge-on.
-LINK_TESTS = ("centroid", "faces")
+# "samples": each shared sample is judged on its own: both photos see it within
+# LINK_INCIDENCE_DEG of its normal and their rays to it meet within max_pair_deg; only those
+# samples count towards the overlap (the definition tests/independent.py counts one by one).
+LINK_TESTS = ("centroid", "faces", "samples")
 LINK_INCIDENCE_DEG = 60.0
 FACE_BINS = 64
 
@@ -96,7 +99,7 @@ def shot_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray,
                rule: MatchRule = MatchRule(), normals: np.ndarray | None = None) -> np.ndarray:
     """Boolean (n, n) matrix: which of the n cameras (rows of ``vis``) SfM should match.
     ``normals`` (samples x 3): needed by ``rule.link_test == "faces"``."""
-    if rule.link_test == "faces":
+    if rule.link_test in ("faces", "samples"):
         return candidate_links(vis, positions, points, rule, normals=normals).toarray() > 0
     vis = sp.csr_matrix(vis, dtype=float)
     size = np.asarray(vis.sum(axis=1)).ravel()
@@ -214,6 +217,8 @@ def candidate_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarra
     listed[rows] = True
     if rule.link_test == "faces":
         r, c = _face_links(vis, rows, listed, size, positions, points, normals, rule)
+    elif rule.link_test == "samples":
+        r, c = _sample_links(vis, listed, size, positions, points, normals, rule)
     else:
         r, c, shared, centre = _shared_entries(vis[rows], rows, vis.T.tocsc(), points)
         keep = ((r < c) | ~listed[c]) & (shared >= rule.min_overlap * np.minimum(size[r], size[c]))
@@ -289,6 +294,51 @@ def _face_links(vis: sp.csr_matrix, rows: np.ndarray, listed: np.ndarray, size: 
     return r[ok], c[ok]
 
 
+PAIRS_PER_CHUNK = 4_000_000  # view pairs judged at once by the "samples" link test
+
+
+def _sample_links(vis: sp.csr_matrix, listed: np.ndarray, size: np.ndarray, positions: np.ndarray,
+                  points: np.ndarray, normals: np.ndarray | None, rule: MatchRule):
+    """The pairs (r, c) that pass the "samples" link test (``LINK_TESTS``), r listed: every
+    pair of views of every sample, judged in chunks of samples."""
+    if normals is None:
+        raise ValueError("the samples link test needs the samples' normals")
+    csc = sp.csc_matrix(vis)
+    csc.sort_indices()
+    n, n_samples = csc.shape
+    cam = csc.indices.astype(np.int64)
+    samp = np.repeat(np.arange(n_samples), np.diff(csc.indptr))
+    ray = positions[cam] - points[samp]
+    ray /= np.maximum(np.linalg.norm(ray, axis=1), 1e-12)[:, None]
+    square = np.einsum("ij,ij->i", ray, normals[samp]) >= np.cos(np.radians(LINK_INCIDENCE_DEG))
+    cam, samp, ray = cam[square], samp[square], ray[square]
+    count = np.bincount(samp, minlength=n_samples)
+    start = np.cumsum(count) - count
+    cos_pair = np.cos(np.radians(rule.max_pair_deg))
+    work = np.cumsum(count.astype(np.int64) ** 2)
+    found = []
+    lo = 0
+    while lo < n_samples:
+        hi = max(int(np.searchsorted(work, work[lo - 1] + PAIRS_PER_CHUNK if lo else PAIRS_PER_CHUNK, "right")), lo + 1)
+        e = np.arange(start[lo], start[hi - 1] + count[hi - 1])
+        k = count[samp[e]]
+        a = np.repeat(e, k)
+        b = np.repeat(start[samp[e]], k) + (np.arange(len(a)) - np.repeat(np.cumsum(k) - k, k))
+        ca, cb = cam[a], cam[b]
+        keep = listed[ca] & ((ca < cb) | ~listed[cb])
+        a, b = a[keep], b[keep]
+        ok = np.einsum("ij,ij->i", ray[a], ray[b]) >= cos_pair
+        found.append((cam[a[ok]], cam[b[ok]]))
+        lo = hi
+    r, c = (np.concatenate(x) for x in zip(*found)) if found else (np.zeros(0, np.int64),) * 2
+    counted = sp.coo_matrix((np.ones(len(r)), (r, c)), shape=(n, n)).tocsr()
+    counted.sum_duplicates()
+    counted = counted.tocoo()
+    r, c = counted.row.astype(np.int64), counted.col.astype(np.int64)
+    ok = counted.data >= rule.min_overlap * np.minimum(size[r], size[c])
+    return r[ok], c[ok]
+
+
 def extend_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray, rule: MatchRule,
                  known: sp.csr_matrix, normals: np.ndarray | None = None) -> sp.csr_matrix:
     """``candidate_links`` of every row of ``vis`` when ``known`` holds those among its first
@@ -309,35 +359,65 @@ def connect_shots(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray,
     ``rule.min_neighbours`` links and the links join all shots in one piece, or nothing helps.
     ``links``: ``candidate_links(vis, positions, points, rule)`` if already worked out.
 
-    Shots short of neighbours get, one at a time, the candidate linked to most of them; pieces
-    left apart are joined along the shortest chain of linked candidates (Dijkstra over the
-    candidate link graph from the largest piece).
+    Shots short of neighbours get, one at a time, the candidate linked to most of them. Pieces
+    left apart are joined along chains of linked candidates (Dijkstra over the candidate link
+    graph from the largest piece), two ways: every piece at once along its shortest chain, or
+    the nearest piece first, counting the candidates already taken as free, then again from
+    the grown piece (a Steiner-tree heuristic: later chains run through earlier ones). Neither
+    is the shorter on every scene, so under the "samples" link test (the lean selection,
+    ``stages.lean``) both run and the one adding fewer shots is kept; under the others, the
+    first alone.
     """
-    from scipy.sparse.csgraph import dijkstra
-
     chosen = [int(j) for j in chosen]
     if len(chosen) < 2:
         return np.array(chosen, dtype=np.int64)
     budget = len(chosen) if max_added is None else int(max_added)
     links = candidate_links(vis, positions, points, rule, normals=normals) if links is None else links
+    links = sp.csr_matrix(links)
+    ways = (False, True) if rule.link_test == "samples" else (False,)  # the lean selection's (stages.lean)
+    joined = [_connect(links, chosen, rule.min_neighbours, budget, nearest) for nearest in ways]
+    return min(joined, key=len)
+
+
+def _connect(links: sp.csr_matrix, start: list[int], min_neighbours: int, budget: int, nearest: bool) -> np.ndarray:
+    """``connect_shots`` with one way of joining the pieces (``nearest``: the Steiner one)."""
+    from scipy.sparse.csgraph import dijkstra
+
+    chosen = list(start)
     n = links.shape[0]
     taken = np.zeros(n, dtype=bool)
     taken[chosen] = True
+    added = 0
 
     def add(j: int) -> None:
+        nonlocal added
         chosen.append(int(j))
         taken[j] = True
+        added += 1
 
-    def among():
+    def pieces():
         idx = np.array(chosen)
-        return idx, links[idx][:, idx]
+        n_comp, label = connected_components(links[idx][:, idx], directed=False)
+        return idx, n_comp, label
 
-    added = 0
+    def chain(pred, end) -> bool:
+        """Add the untaken candidates on the chain from ``end`` back to the largest piece."""
+        grew = False
+        node = pred[end]
+        while node >= 0 and added < budget:
+            if not taken[node]:
+                add(node)
+                grew = True
+            elif not nearest:  # the old chains stop at the first shot already taken
+                break
+            node = pred[node]
+        return grew
+
     for _pass in range(3):
         # 1. every shot its neighbours (links is symmetric: degrees are one product)
         while added < budget:
             degree = links @ taken.astype(float)
-            short_mask = taken & (degree < rule.min_neighbours)
+            short_mask = taken & (degree < min_neighbours)
             if not short_mask.any():
                 break
             score = links @ short_mask.astype(float)
@@ -346,30 +426,38 @@ def connect_shots(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray,
             if score[best] <= 0:
                 break
             add(best)
-            added += 1
-        # 2. one piece: chain the other pieces to the largest along linked candidates
-        idx, sub = among()
-        n_comp, label = connected_components(sub, directed=False)
+        # 2. one piece
+        idx, n_comp, label = pieces()
         if n_comp == 1 or added >= budget:
             break
-        main = idx[label == np.argmax(np.bincount(label))]
-        dist, pred, _src = dijkstra(links, indices=main, unweighted=True, min_only=True,
-                                    return_predecessors=True)
-        joined = False
-        for comp in range(n_comp):
-            members = idx[label == comp]
-            if np.isin(members, main).any():
-                continue
-            end = members[np.argmin(dist[members])]
-            if not np.isfinite(dist[end]):
-                continue
-            node = pred[end]
-            while node >= 0 and not taken[node] and added < budget:
-                add(node)
-                added += 1
-                joined = True
-                node = pred[node]
-        if not joined:
+        grew = False
+        if not nearest:
+            main = idx[label == np.argmax(np.bincount(label))]
+            dist, pred, _src = dijkstra(links, indices=main, unweighted=True, min_only=True,
+                                        return_predecessors=True)
+            for comp in range(n_comp):
+                members = idx[label == comp]
+                if np.isin(members, main).any():
+                    continue
+                end = members[np.argmin(dist[members])]
+                if np.isfinite(dist[end]):
+                    grew |= chain(pred, end)
+        else:
+            step = links.copy()
+            step.eliminate_zeros()
+            while n_comp > 1 and added < budget:
+                main_label = int(np.argmax(np.bincount(label)))
+                # entering a taken candidate costs (almost) nothing: chains reuse the shots there
+                step.data = np.where(taken[step.indices], 1e-6, 1.0)
+                dist, pred, _src = dijkstra(step, directed=True, indices=idx[label == main_label], min_only=True,
+                                            return_predecessors=True)
+                rest = idx[label != main_label]
+                end = rest[np.argmin(dist[rest])]
+                if not np.isfinite(dist[end]) or not chain(pred, end):
+                    break
+                grew = True
+                idx, n_comp, label = pieces()
+        if not grew:
             break
     return np.array(chosen, dtype=np.int64)
 

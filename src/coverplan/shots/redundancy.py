@@ -21,7 +21,13 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from coverplan.shots.reconstructability import depth_first
 from coverplan.shots.visibility import has_pair_between
+
+# Views to spare on every check sample a shot dropped by the final trim covered. With none,
+# the gabled house's plan fell from 47 to 39 photos and one field draw in three rebuilt its
+# north face at 87 % (benchmarks/results/experiment_prune_after_bracing_gabled.json).
+TRIM_SPARE_VIEWS = 1
 
 
 @dataclass
@@ -48,11 +54,14 @@ class CheckViews:
 
 
 def drop_redundant(chosen: np.ndarray, views: CheckViews, sharp: list[SharpViews] = (),
-                   links: np.ndarray | None = None, min_neighbours: int = 0, keep=None) -> np.ndarray:
+                   links: np.ndarray | None = None, min_neighbours: int = 0, keep=None, braced: bool = False,
+                   spare_views: int = 0) -> np.ndarray:
     """The shots of ``chosen`` (candidate indices, in the order picked) left once every shot
     the others make redundant is dropped, latest first. ``links``: (len(chosen),) * 2
     booleans, which chosen shots SfM will match (``shot_links``). ``keep``: candidate indices
-    never dropped (photos already taken)."""
+    never dropped (photos already taken). ``braced``: no shot is dropped whose loss makes
+    another a cut shot (``bracing.py``). ``spare_views``: the check samples a dropped shot
+    covered keep that many views more than the rule asks."""
     chosen = np.asarray(chosen, dtype=np.int64)
     n = len(chosen)
     alive = np.ones(n, dtype=bool)
@@ -76,6 +85,7 @@ def drop_redundant(chosen: np.ndarray, views: CheckViews, sharp: list[SharpViews
     degree = links.sum(axis=1)
     floor = np.minimum(degree, min_neighbours)
     neighbours = [np.flatnonzero(r).tolist() for r in links]
+    cuts = depth_first(sp.csr_matrix(links))["cut"] if braced else np.zeros(n, dtype=bool)
 
     for k in range(n - 1, -1, -1):
         if kept[k]:
@@ -94,7 +104,7 @@ def drop_redundant(chosen: np.ndarray, views: CheckViews, sharp: list[SharpViews
             entries = by_sample[_ranges(lo, hi)]
             live = alive[row[entries]] & (row[entries] != k)
             local, entries = local[live], entries[live]
-            if (np.bincount(local, minlength=len(samples)) < views.min_views).any():
+            if (np.bincount(local, minlength=len(samples)) < views.min_views + spare_views).any():
                 continue
             if not has_pair_between(local, rays[entries], len(samples), views.min_triangulation_deg,
                                     views.max_pair_deg).all():
@@ -103,10 +113,20 @@ def drop_redundant(chosen: np.ndarray, views: CheckViews, sharp: list[SharpViews
         if len(near) > 1 and not _joined(neighbours, alive, near):
             alive[k] = True
             continue
+        if braced and _new_cut(links, alive, cuts):
+            alive[k] = True
+            continue
         degree[near] -= 1
         for h, m in zip(have, sharp_rows):
             h[_row(m, k)] -= 1
     return chosen[alive]
+
+
+def _new_cut(links: np.ndarray, alive: np.ndarray, cuts: np.ndarray) -> bool:
+    """Whether the alive shots' links have a cut shot (``cut_shots``) that ``cuts`` had not."""
+    idx = np.flatnonzero(alive)
+    now = depth_first(sp.csr_matrix(links[np.ix_(idx, idx)]))["cut"]
+    return bool((now & ~cuts[idx]).any())
 
 
 def _row(m: sp.csr_matrix, k: int) -> np.ndarray:
@@ -149,7 +169,7 @@ def coverage_state(vis: sp.csr_matrix, rays: np.ndarray, chosen, min_views: int,
 
 
 def prune_redundant(vis, rays, chosen, min_views: int, min_triangulation_deg: float,
-                    max_pair_deg: float | None = None, fixed: int = 0) -> np.ndarray:
+                    max_pair_deg: float | None = None, fixed: int = 0, wanted=None) -> np.ndarray:
     """Drop chosen candidates, earliest-picked last, whose removal uncovers no covered sample;
     the first ``fixed`` are kept whatever."""
     keep = np.ones(len(chosen), dtype=bool)
@@ -158,12 +178,21 @@ def prune_redundant(vis, rays, chosen, min_views: int, min_triangulation_deg: fl
     # Per sample, the chosen views that image it (rows of a chosen x samples matrix, by column).
     rows, cols, ray = _rows(vis, rays, chosen)
     by_sample = sp.csc_matrix((np.arange(len(rows)) + 1, (rows, cols)), shape=(len(chosen), vis.shape[1]))
+    if wanted is not None:
+        wanted = sp.csr_matrix(wanted)
+        w_have = np.asarray(wanted[chosen].sum(axis=0)).ravel()
     for k in range(len(chosen) - 1, fixed - 1, -1):
         j = chosen[k]
+        if wanted is not None:
+            w = wanted.indices[wanted.indptr[j]:wanted.indptr[j + 1]]
+            if (w_have[w] <= 1).any():
+                continue
         s = indices[indptr[j]:indptr[j + 1]]
         s = s[covered[s]]
         if len(s) == 0:
             keep[k] = False
+            if wanted is not None:
+                w_have[wanted.indices[wanted.indptr[j]:wanted.indptr[j + 1]]] -= 1
             continue
         sub = by_sample[:, s].tocoo()
         alive = keep[sub.row] & (sub.row != k)
@@ -174,6 +203,8 @@ def prune_redundant(vis, rays, chosen, min_views: int, min_triangulation_deg: fl
             continue
         if has_pair_between(local, ray[entry], len(s), min_triangulation_deg, max_pair_deg).all():
             keep[k] = False
+            if wanted is not None:
+                w_have[wanted.indices[wanted.indptr[j]:wanted.indptr[j + 1]]] -= 1
     return chosen[keep]
 
 

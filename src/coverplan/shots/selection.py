@@ -36,7 +36,7 @@ class Selection:
 
 def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_triangulation_deg: float,
                  lp_time_limit: float = 20.0, progress=None, max_pair_deg: float | None = None,
-                 preset=None) -> Selection:
+                 preset=None, wanted: sp.csr_matrix | None = None) -> Selection:
     """Pick candidates (rows of ``vis``) covering the samples (columns).
 
     ``rays`` holds, in the order of ``vis.data``, the unit vector from sample to camera.
@@ -49,8 +49,13 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_trian
     n_cand, n_samp = vis.shape
     coverable = np.flatnonzero(np.bincount(vis.indices, minlength=n_samp) >= min_views)
     bound, x = (None, np.zeros(n_cand))
+    if wanted is not None:
+        wanted = sp.csr_matrix(wanted)
+        wanted.sort_indices()
+        w_need = (np.asarray(wanted.sum(axis=0)).ravel() > 0).astype(np.int64)
+        w_have = np.zeros(n_samp, dtype=np.int64)
     if lp_time_limit > 0 and len(coverable):
-        bound, x_lp = lp_relaxation(vis, coverable, min_views, lp_time_limit)
+        bound, x_lp = lp_relaxation(vis, coverable, min_views, lp_time_limit, wanted=wanted)
         if x_lp is not None:
             x = x_lp
     indptr, indices = vis.indptr, vis.indices
@@ -82,6 +87,9 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_trian
         if open_pair.any():
             dots = np.einsum("nkd,nd->nk", stored[s[open_pair]], rays[lo:hi][open_pair])
             g += np.count_nonzero(in_window(dots).any(axis=1))
+        if wanted is not None:
+            w = wanted.indices[wanted.indptr[j]:wanted.indptr[j + 1]]
+            g += np.count_nonzero(w_have[w] < w_need[w])
         return float(g * (1.0 + x[j]))
 
     def all_gains(candidates: np.ndarray) -> np.ndarray:
@@ -98,7 +106,10 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_trian
                 k = np.flatnonzero(open_pair)[lo:lo + 500_000]
                 dots = np.einsum("nkd,nd->nk", stored[s[k]], rays[entries[k]])
                 value[k] += in_window(dots).any(axis=1)
-        return np.bincount(rows, weights=value, minlength=len(candidates)) * (1.0 + x[candidates])
+        total = np.bincount(rows, weights=value, minlength=len(candidates))
+        if wanted is not None:
+            total = total + wanted[candidates] @ (w_have < w_need).astype(float)
+        return total * (1.0 + x[candidates])
 
     def take(j: int) -> None:
         s = indices[indptr[j]:indptr[j + 1]]
@@ -108,6 +119,8 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_trian
         room = slot < _STORED
         stored[s[room], slot[room]] = r[room]
         count[s] += 1
+        if wanted is not None:
+            w_have[wanted.indices[wanted.indptr[j]:wanted.indptr[j + 1]]] += 1
 
     chosen: list[int] = []
     taken = np.zeros(n_cand, dtype=bool)
@@ -153,8 +166,18 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_trian
         if progress is not None:
             progress(1)
     chosen += complete_pairs(vis, rays, np.array(chosen, dtype=np.int64), min_views, min_triangulation_deg, max_pair_deg)
+    if wanted is not None:  # the sharp views the greedy did not reach on its own (pairs completed)
+        short = np.flatnonzero(w_have < w_need)
+        for smp in short:
+            if w_have[smp] >= w_need[smp]:
+                continue
+            col = wanted[:, smp].tocoo().row
+            j = int(col[np.argmax(x[col])])
+            take(j)
+            taken[j] = True
+            chosen.append(j)
     chosen_arr = prune_redundant(vis, rays, np.array(chosen, dtype=np.int64), min_views, min_triangulation_deg,
-                                 max_pair_deg, fixed=len(fixed))
+                                 max_pair_deg, fixed=len(fixed), wanted=wanted)
     views, satisfied = coverage_state(vis, rays, chosen_arr, min_views, min_triangulation_deg, max_pair_deg)
     return Selection(chosen_arr, views, satisfied, bound)
 
@@ -208,7 +231,7 @@ def complete_pairs(vis: sp.csr_matrix, rays: np.ndarray, chosen, min_views: int,
     return added
 
 
-def lp_relaxation(vis: sp.csr_matrix, samples, min_views: int, time_limit: float = 20.0):
+def lp_relaxation(vis: sp.csr_matrix, samples, min_views: int, time_limit: float = 20.0, wanted=None):
     """LP relaxation of the multi-cover over the given samples: (optimum, x) or (None, None).
 
     min sum x subject to, for each sample, the x of the candidates imaging it summing to at
@@ -222,15 +245,24 @@ def lp_relaxation(vis: sp.csr_matrix, samples, min_views: int, time_limit: float
     if len(samples) == 0:
         return 0.0, np.zeros(n_cand)
     a = vis[:, samples].T.tocsr().astype(float)
+    rhs = np.full(a.shape[0], float(min_views))
+    if wanted is not None:
+        w = sp.csr_matrix(wanted).T.tocsr().astype(float)
+        w = w[np.flatnonzero(np.diff(w.indptr) > 0)]
+        a = sp.vstack([a, w]).tocsr()
+        rhs = np.concatenate([rhs, np.ones(w.shape[0])])
     a.sort_indices()
     # Identical constraints add nothing: keep one row per distinct set of candidates.
     keys = {}
     for r in range(a.shape[0]):
-        keys.setdefault(a.indices[a.indptr[r]:a.indptr[r + 1]].tobytes(), r)
-    a = a[np.array(sorted(keys.values()))]
+        key = a.indices[a.indptr[r]:a.indptr[r + 1]].tobytes()
+        if key not in keys or rhs[r] > rhs[keys[key]]:
+            keys[key] = r
+    rows = np.array(sorted(keys.values()))
+    a, rhs = a[rows], rhs[rows]
     used = np.flatnonzero(np.asarray(a.sum(axis=0)).ravel() > 0)
     a = a[:, used]
-    res = linprog(np.ones(a.shape[1]), A_ub=-a, b_ub=-np.full(a.shape[0], float(min_views)),
+    res = linprog(np.ones(a.shape[1]), A_ub=-a, b_ub=-rhs,
                   bounds=(0, 1), method="highs-ipm", options={"time_limit": float(time_limit)})
     if res.status != 0 or res.x is None:
         return None, None
