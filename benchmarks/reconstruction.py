@@ -20,6 +20,7 @@ from pathlib import Path
 from common import MESHES, table, write_json
 from coverplan import evaluate, get_camera, load_scene, plan
 from coverplan.progress import Progress
+from coverplan.shots.reconstructability import MatchRule
 from coverplan.sfm.colmap import SPATIAL_NEIGHBOURS
 from coverplan.sfm.simulate import simulate
 from structure_scan import scan_with_roof_grid, structure_scan
@@ -69,7 +70,7 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--scenes", nargs="+", default=None, choices=sorted(SCENES))
-    flights = ["coverplan", "no-margin", "structure-scan", "scan+roof-grid", "thesis-rule"]
+    flights = ["coverplan", "no-margin", "samples-links", "structure-scan", "scan+roof-grid", "thesis-rule"]
     parser.add_argument("--flights", nargs="+", default=["coverplan", "structure-scan", "scan+roof-grid"],
                         choices=flights)
     parser.add_argument("--conditions", nargs="+", default=["field"], choices=["ideal", "field", "harsh"])
@@ -110,6 +111,8 @@ def main(argv=None):
             routes = {"coverplan": lambda: ours,
                       "no-margin": lambda: plan(scene, camera, gsd=GSD, security=SECURITY, pose_margin="none"),
                       "thesis-rule": lambda: plan(scene, camera, gsd=GSD, security=SECURITY, rule="thesis"),
+                      "samples-links": lambda: plan(scene, camera, gsd=GSD, security=SECURITY,
+                                                    match=MatchRule(link_test="samples")),
                       "structure-scan": lambda: structure_scan(scene, camera, GSD, SECURITY, ours.positions[0]),
                       "scan+roof-grid": lambda: scan_with_roof_grid(scene, camera, GSD, SECURITY, ours.positions[0])}
             for flight in args.flights:

@@ -315,20 +315,21 @@ def _sample_links(vis: sp.csr_matrix, listed: np.ndarray, size: np.ndarray, posi
     count = np.bincount(samp, minlength=n_samples)
     start = np.cumsum(count) - count
     cos_pair = np.cos(np.radians(rule.max_pair_deg))
-    work = np.cumsum(count.astype(np.int64) ** 2)
+    # Each unordered pair of a sample's views once: an entry pairs with the later entries of its
+    # sample, whose cameras have higher indices (the columns' rows are sorted), so (a, b) is (low, high).
+    later = (start + count)[samp] - np.arange(len(samp)) - 1
+    work = np.cumsum(later)
     found = []
     lo = 0
-    while lo < n_samples:
-        hi = max(int(np.searchsorted(work, work[lo - 1] + PAIRS_PER_CHUNK if lo else PAIRS_PER_CHUNK, "right")), lo + 1)
-        e = np.arange(start[lo], start[hi - 1] + count[hi - 1])
-        k = count[samp[e]]
+    while lo < len(samp):
+        hi = max(int(np.searchsorted(work, (work[lo - 1] if lo else 0) + PAIRS_PER_CHUNK, "right")), lo + 1)
+        e = np.arange(lo, hi)
+        k = later[e]
         a = np.repeat(e, k)
-        b = np.repeat(start[samp[e]], k) + (np.arange(len(a)) - np.repeat(np.cumsum(k) - k, k))
+        b = a + 1 + (np.arange(len(a)) - np.repeat(np.cumsum(k) - k, k))
         ca, cb = cam[a], cam[b]
-        keep = listed[ca] & ((ca < cb) | ~listed[cb])
-        a, b = a[keep], b[keep]
-        ok = np.einsum("ij,ij->i", ray[a], ray[b]) >= cos_pair
-        found.append((cam[a[ok]], cam[b[ok]]))
+        keep = (listed[ca] | listed[cb]) & (np.einsum("ij,ij->i", ray[a], ray[b]) >= cos_pair)
+        found.append((ca[keep], cb[keep]))
         lo = hi
     r, c = (np.concatenate(x) for x in zip(*found)) if found else (np.zeros(0, np.int64),) * 2
     counted = sp.coo_matrix((np.ones(len(r)), (r, c)), shape=(n, n)).tocsr()
