@@ -479,6 +479,8 @@ def test_lean_plan_under_the_samples_link_test_keeps_its_claims():
     default = plan(scene, camera, gsd=0.004, security=3.0)
     lean = plan(scene, camera, gsd=0.004, security=3.0, match=MatchRule(link_test="samples"))
     assert default.metrics["trimmed_shots"] == 0 and lean.params["link_test"] == "samples"
+    assert any(n.startswith("WARNING link test samples") for n in lean.extra["notes"])
+    assert not any(n.startswith("WARNING link test") for n in default.extra["notes"])
     assert len(lean.shots) < 0.9 * len(default.shots)
     ev = evaluate(lean, scene, spacing=0.2, seed=5)
     assert ev.safe and ev.coverage_pct >= 99.9 and ev.metrics["sharp_view_pct"] >= 99.5
