@@ -170,8 +170,9 @@ def coverage_state(vis: sp.csr_matrix, rays: np.ndarray, chosen, min_views: int,
 
 def prune_redundant(vis, rays, chosen, min_views: int, min_triangulation_deg: float,
                     max_pair_deg: float | None = None, fixed: int = 0, wanted=None) -> np.ndarray:
-    """Drop chosen candidates, earliest-picked last, whose removal uncovers no covered sample;
-    the first ``fixed`` are kept whatever."""
+    """Drop chosen candidates, earliest-picked last, whose removal uncovers no covered sample
+    and leaves no sample without the last of its ``wanted`` views (candidates x samples, as
+    ``select_views`` takes it); the first ``fixed`` are kept whatever."""
     keep = np.ones(len(chosen), dtype=bool)
     _views, covered = coverage_state(vis, rays, chosen, min_views, min_triangulation_deg, max_pair_deg)
     indptr, indices = vis.indptr, vis.indices

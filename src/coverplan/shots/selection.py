@@ -43,6 +43,10 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_trian
     ``lp_time_limit`` <= 0 skips the LP (plain greedy). With ``max_pair_deg`` the pair that
     covers a sample must also be at most that wide (views SfM can match), not only wide enough.
     ``preset`` candidates are taken first and kept (the result starts with them).
+    ``wanted`` (candidates x samples, 1 where the view is of a kind a sample wants, such as a
+    sharp view): every sample some candidate offers one to gets one, asked of the LP and counted
+    in the greedy's gains alongside the views (a candidate's gain grows by the samples it gives
+    their first wanted view), and kept by the pruning.
     """
     vis = vis.tocsr()
     vis.sort_indices()
@@ -51,7 +55,6 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_trian
     bound, x = (None, np.zeros(n_cand))
     if wanted is not None:
         wanted = sp.csr_matrix(wanted)
-        wanted.sort_indices()
         w_need = (np.asarray(wanted.sum(axis=0)).ravel() > 0).astype(np.int64)
         w_have = np.zeros(n_samp, dtype=np.int64)
     if lp_time_limit > 0 and len(coverable):
@@ -166,16 +169,6 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_trian
         if progress is not None:
             progress(1)
     chosen += complete_pairs(vis, rays, np.array(chosen, dtype=np.int64), min_views, min_triangulation_deg, max_pair_deg)
-    if wanted is not None:  # the sharp views the greedy did not reach on its own (pairs completed)
-        short = np.flatnonzero(w_have < w_need)
-        for smp in short:
-            if w_have[smp] >= w_need[smp]:
-                continue
-            col = wanted[:, smp].tocoo().row
-            j = int(col[np.argmax(x[col])])
-            take(j)
-            taken[j] = True
-            chosen.append(j)
     chosen_arr = prune_redundant(vis, rays, np.array(chosen, dtype=np.int64), min_views, min_triangulation_deg,
                                  max_pair_deg, fixed=len(fixed), wanted=wanted)
     views, satisfied = coverage_state(vis, rays, chosen_arr, min_views, min_triangulation_deg, max_pair_deg)
@@ -235,7 +228,8 @@ def lp_relaxation(vis: sp.csr_matrix, samples, min_views: int, time_limit: float
     """LP relaxation of the multi-cover over the given samples: (optimum, x) or (None, None).
 
     min sum x subject to, for each sample, the x of the candidates imaging it summing to at
-    least ``min_views``, with 0 <= x <= 1. The triangulation rule is left out, so the optimum
+    least ``min_views``, with 0 <= x <= 1; with ``wanted`` (candidates x samples), also the x of
+    the candidates a sample wants summing to at least 1 wherever there are any. The triangulation rule is left out, so the optimum
     bounds from below the shot count of any plan covering those samples from these candidates.
     """
     from scipy.optimize import linprog
