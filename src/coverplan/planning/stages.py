@@ -390,7 +390,7 @@ def close_gaps(problem: Problem, selection: Selection, setup: Setup, progress: P
         trimmed = 0
         if lean(match) and len(chosen) > 2:
             before = len(chosen)
-            chosen = _trim(cover, closer, chosen, check, coarse, vis, match, problem, setup)
+            chosen = _trim(cover, closer, chosen, check, coarse, vis, match, fill, problem.fixed)
             trimmed = before - len(chosen)
             if trimmed:
                 check = closer.kept(check, chosen)
@@ -645,7 +645,7 @@ def lean(match: MatchRule | None) -> bool:
 
 
 def _trim(cover: CoverProblem, closer: GapCloser, chosen: np.ndarray, check, coarse: int, vis, match: MatchRule,
-          problem: Problem, setup: Setup) -> np.ndarray:
+          fill: np.ndarray, keep) -> np.ndarray:
     """The finished shots less those the rest make redundant, judged as ``_drop_redundant``
     judges them but on the links of the check samples (as the relink and the bracing judge
     them), with no new cut photo when the links are braced, and with one view to spare on
@@ -655,11 +655,7 @@ def _trim(cover: CoverProblem, closer: GapCloser, chosen: np.ndarray, check, coa
     links = candidate_links(check_views(closer, chosen, len(cover.cands)), cover.cands.positions[chosen],
                             fine.points, match, normals=fine.normals).toarray() > 0
     np.fill_diagonal(links, False)
-    fill = problem.fill
-    if match.framed_views:
-        added = cover.cands.subset(np.arange(len(fill), len(cover.cands)))
-        fill = np.vstack([fill, _fill_of(cover.scene, added, setup)])
-    return _drop_redundant(cover, closer, chosen, check.covered, coarse, vis, match, fill, keep=problem.fixed,
+    return _drop_redundant(cover, closer, chosen, check.covered, coarse, vis, match, fill, keep=keep,
                            links=links, braced=match.braced, spare_views=TRIM_SPARE_VIEWS)
 
 
