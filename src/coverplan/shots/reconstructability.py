@@ -98,7 +98,7 @@ def _products(va: sp.csr_matrix, vb: sp.csr_matrix, points: np.ndarray):
 def shot_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray,
                rule: MatchRule = MatchRule(), normals: np.ndarray | None = None) -> np.ndarray:
     """Boolean (n, n) matrix: which of the n cameras (rows of ``vis``) SfM should match.
-    ``normals`` (samples x 3): needed by ``rule.link_test == "faces"``."""
+    ``normals`` (samples x 3): needed by the "faces" and "samples" link tests."""
     if rule.link_test in ("faces", "samples"):
         return candidate_links(vis, positions, points, rule, normals=normals).toarray() > 0
     vis = sp.csr_matrix(vis, dtype=float)
@@ -299,8 +299,8 @@ PAIRS_PER_CHUNK = 4_000_000  # view pairs judged at once by the "samples" link t
 
 def _sample_links(vis: sp.csr_matrix, listed: np.ndarray, size: np.ndarray, positions: np.ndarray,
                   points: np.ndarray, normals: np.ndarray | None, rule: MatchRule):
-    """The pairs (r, c) that pass the "samples" link test (``LINK_TESTS``), r listed: every
-    pair of views of every sample, judged in chunks of samples."""
+    """The pairs (r, c), r < c, at least one of them listed, that pass the "samples" link test
+    (``LINK_TESTS``): every pair of views of every sample, judged in chunks of samples."""
     if normals is None:
         raise ValueError("the samples link test needs the samples' normals")
     csc = sp.csc_matrix(vis)
