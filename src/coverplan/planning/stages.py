@@ -641,7 +641,7 @@ def lean(match: MatchRule | None) -> bool:
     "samples" link test: under "centroid" the same rules met with fewer photos split the gabled
     house's model in two field draws of three (its links across corners are not COLMAP's), so
     those plans keep the slack the classic selection leaves (docs/reconstruction.md)."""
-    return match is not None and match.link_test == "samples"
+    return match is not None and match.lean
 
 
 def _trim(cover: CoverProblem, closer: GapCloser, chosen: np.ndarray, check, coarse: int, vis, match: MatchRule,

@@ -53,6 +53,12 @@ class MatchRule:
     braced: bool = True  # no photo the links hang on (bracing.py); False: one piece is enough
     link_test: str = "centroid"  # LINK_TESTS: how the shared surface's rays are judged
 
+    @property
+    def lean(self) -> bool:
+        """Whether plans under this rule are chosen lean (``stages.lean``): under the "samples"
+        link test only."""
+        return self.link_test == "samples"
+
     def __post_init__(self):
         if self.link_test not in LINK_TESTS:
             raise ParameterError(f"the link test (--link-test) must be one of {', '.join(LINK_TESTS)}, "
@@ -365,9 +371,8 @@ def connect_shots(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray,
     graph from the largest piece), two ways: every piece at once along its shortest chain, or
     the nearest piece first, counting the candidates already taken as free, then again from
     the grown piece (a Steiner-tree heuristic: later chains run through earlier ones). Neither
-    is the shorter on every scene, so under the "samples" link test (the lean selection,
-    ``stages.lean``) both run and the one adding fewer shots is kept; under the others, the
-    first alone.
+    is the shorter on every scene, so for a lean rule (``MatchRule.lean``) both run and the one
+    adding fewer shots is kept; otherwise the first alone.
     """
     chosen = [int(j) for j in chosen]
     if len(chosen) < 2:
@@ -375,7 +380,7 @@ def connect_shots(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray,
     budget = len(chosen) if max_added is None else int(max_added)
     links = candidate_links(vis, positions, points, rule, normals=normals) if links is None else links
     links = sp.csr_matrix(links)
-    ways = (False, True) if rule.link_test == "samples" else (False,)  # the lean selection's (stages.lean)
+    ways = (False, True) if rule.lean else (False,)
     joined = [_connect(links, chosen, rule.min_neighbours, budget, nearest) for nearest in ways]
     return min(joined, key=len)
 

@@ -184,28 +184,23 @@ def prune_redundant(vis, rays, chosen, min_views: int, min_triangulation_deg: fl
         w_have = np.asarray(wanted[chosen].sum(axis=0)).ravel()
     for k in range(len(chosen) - 1, fixed - 1, -1):
         j = chosen[k]
-        if wanted is not None:
-            w = wanted.indices[wanted.indptr[j]:wanted.indptr[j + 1]]
-            if (w_have[w] <= 1).any():
-                continue
+        if wanted is not None and (w_have[_row(wanted, j)] <= 1).any():
+            continue
         s = indices[indptr[j]:indptr[j + 1]]
         s = s[covered[s]]
-        if len(s) == 0:
-            keep[k] = False
-            if wanted is not None:
-                w_have[wanted.indices[wanted.indptr[j]:wanted.indptr[j + 1]]] -= 1
-            continue
-        sub = by_sample[:, s].tocoo()
-        alive = keep[sub.row] & (sub.row != k)
-        entry = sub.data[alive] - 1
-        local = sub.col[alive]
-        n_views = np.bincount(local, minlength=len(s))
-        if (n_views < min_views).any():
-            continue
-        if has_pair_between(local, ray[entry], len(s), min_triangulation_deg, max_pair_deg).all():
-            keep[k] = False
-            if wanted is not None:
-                w_have[wanted.indices[wanted.indptr[j]:wanted.indptr[j + 1]]] -= 1
+        if len(s):
+            sub = by_sample[:, s].tocoo()
+            alive = keep[sub.row] & (sub.row != k)
+            entry = sub.data[alive] - 1
+            local = sub.col[alive]
+            n_views = np.bincount(local, minlength=len(s))
+            if (n_views < min_views).any():
+                continue
+            if not has_pair_between(local, ray[entry], len(s), min_triangulation_deg, max_pair_deg).all():
+                continue
+        keep[k] = False
+        if wanted is not None:
+            w_have[_row(wanted, j)] -= 1
     return chosen[keep]
 
 
