@@ -96,23 +96,34 @@ def test_a_pair_across_a_corner_links_only_where_both_see_a_face_squarely():
         shot_links(vis, positions, points, MatchRule(link_test="faces"))
 
 
-def test_faces_links_of_some_rows_are_the_whole_graphs():
-    rng = np.random.default_rng(5)
+def _cameras_round_the_corner(rng):
+    """Up to 40 cameras outside the corner, each seeing at random 80 % of the samples it faces:
+    (points, normals, positions, vis)."""
     points, normals = _corner()
     positions = np.column_stack([rng.uniform(-6, 9, 40), rng.uniform(-9, 6, 40), rng.uniform(0, 4, 40)])
-    outside = (positions[:, 0] > 0.5) | (positions[:, 1] < -0.5)
-    positions = positions[outside]
-    n = len(positions)
+    positions = positions[(positions[:, 0] > 0.5) | (positions[:, 1] < -0.5)]
     facing = np.einsum("ijk,jk->ij", positions[:, None, :] - points[None], normals) > 0
     vis = sp.csr_matrix(facing & (rng.random(facing.shape) < 0.8))
+    return points, normals, positions, vis
+
+
+def _touching(n: int, rows: np.ndarray) -> np.ndarray:
+    """(n, n) bool: the pairs with one of ``rows`` at an end."""
+    touches = np.zeros((n, n), dtype=bool)
+    touches[rows] = touches[:, rows] = True
+    return touches
+
+
+def test_faces_links_of_some_rows_are_the_whole_graphs():
+    rng = np.random.default_rng(5)
+    points, normals, positions, vis = _cameras_round_the_corner(rng)
+    n = len(positions)
     rule = MatchRule(link_test="faces")
     whole = candidate_links(vis, positions, points, rule, normals=normals)
     assert whole.nnz > 10
     for rows in (np.arange(0, n, 3), rng.choice(n, n // 2, replace=False)):
         part = candidate_links(vis, positions, points, rule, rows=rows, normals=normals).toarray()
-        touches = np.zeros((n, n), dtype=bool)
-        touches[rows] = touches[:, rows] = True
-        assert (part == (whole.toarray() * touches)).all()
+        assert (part == (whole.toarray() * _touching(n, rows))).all()
 
 
 def test_samples_links_are_the_count_sample_by_sample(monkeypatch):
@@ -122,12 +133,8 @@ def test_samples_links_are_the_count_sample_by_sample(monkeypatch):
     from coverplan.shots import reconstructability
     from tests.independent import per_sample_links
     rng = np.random.default_rng(8)
-    points, normals = _corner()
-    positions = np.column_stack([rng.uniform(-6, 9, 40), rng.uniform(-9, 6, 40), rng.uniform(0, 4, 40)])
-    positions = positions[(positions[:, 0] > 0.5) | (positions[:, 1] < -0.5)]
+    points, normals, positions, vis = _cameras_round_the_corner(rng)
     n = len(positions)
-    facing = np.einsum("ijk,jk->ij", positions[:, None, :] - points[None], normals) > 0
-    vis = sp.csr_matrix(facing & (rng.random(facing.shape) < 0.8))
     cam, pt = vis.nonzero()
     rule = MatchRule(link_test="samples")
     exact = per_sample_links(positions, cam, pt, points, normals, rule.max_pair_deg, 60.0, rule.min_overlap)
@@ -137,9 +144,7 @@ def test_samples_links_are_the_count_sample_by_sample(monkeypatch):
         assert (shot_links(vis, positions, points, rule, normals=normals) == exact).all()
         rows = rng.choice(n, n // 3, replace=False)
         part = candidate_links(vis, positions, points, rule, rows=rows, normals=normals).toarray() > 0
-        touches = np.zeros((n, n), dtype=bool)
-        touches[rows] = touches[:, rows] = True
-        assert (part == (exact & touches)).all()
+        assert (part == (exact & _touching(n, rows))).all()
 
 
 @pytest.mark.parametrize("mesh", ["gabled_house.obj", "l_prism.obj"])
