@@ -24,7 +24,7 @@ from coverplan.world.scene import scene_from_meshes
 from tests.helpers import box
 from tests.independent import polyline_min_distance
 
-EXAMPLES = 44  # two halves of 22; test_random_scene_route_is_safe_many (--slow) draws 1,000
+EXAMPLES = 34  # two halves of 17; test_random_scene_route_is_safe_many (--slow) draws 1,000
 CLAIM_TOLERANCE_PP = 0.1  # how far the planner's coverage figure may exceed the evaluator's
 
 
@@ -149,7 +149,7 @@ def _random_scenes(seed_value: int):
 
         run()
         # Most draws are plannable (the rest refused with a documented error): the mean means something.
-        assert len(results) >= 20, len(results)
+        assert len(results) >= 14, len(results)
         coverage = list(results.values())
         assert np.mean(coverage) >= 99.9, (np.mean(coverage), min(coverage))
         assert len(short) <= max(1, round(0.01 * len(results))), list(short.values())

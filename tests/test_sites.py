@@ -22,7 +22,7 @@ from tests.test_pointcloud import write_las
 from tests.test_properties import CLAIM_TOLERANCE_PP, plan_or_refusal
 from tests.test_terrain import CELL, points_along, write_dtm
 
-EXAMPLES = 10  # about 35 s on one core; --slow adds 300 more
+EXAMPLES = 8  # about 30 s on one core; --slow adds 300 more
 TRUNK_R = 0.3
 
 
