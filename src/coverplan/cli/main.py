@@ -503,8 +503,8 @@ def _add_planning_args(p):
                    help="sfm rule: how two photos' rays to the surface both see are judged: centroid (default): "
                         "at the centroid of all of it; faces: face by face, each within 60 deg of both photos "
                         "(links across a corner count only the faces both photos see squarely); samples: point "
-                        "by point, and the plan is chosen lean (fewer photos; experimental: field-proven on the "
-                        "gabled house only, docs/reconstruction.md)")
+                        "by point, and the plan is chosen lean (fewer photos; experimental: three field draws on the "
+                        "gabled house and the chapel only, docs/reconstruction.md)")
     p.add_argument("--sharp-views", type=int, default=None, metavar="N",
                    help="sfm rule: views per surface point within 35 deg of its normal, or as near as any "
                         "safe viewpoint gets plus 5 deg (default 1; 0: none asked)")

@@ -494,8 +494,8 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
                      "are weaker than the link test counts (a field simulate of the gabled house split in two); "
                      "run coverplan simulate --conditions field before flying it")
     if lean(setup.match):
-        notes.append("WARNING link test samples: a lean plan, field-proven on the gabled house only; run coverplan "
-                     "simulate --conditions field before flying it")
+        notes.append("WARNING link test samples: a lean plan, flown under field conditions three times only on the gabled "
+                     "house and the chapel; run coverplan simulate --conditions field before flying it")
     if setup.max_flight_min is not None:
         params["max_flight_min"] = setup.max_flight_min
     if settings.surface_classes:
