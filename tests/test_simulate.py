@@ -355,3 +355,18 @@ def test_too_few_sift_features_are_refused_before_anything_is_rendered(house, tm
     with pytest.raises(ParameterError, match="SIFT features per photo must be a whole number of at least 100"):
         simulate(route, scene, tmp_path / "x", max_features=bad)
     assert not (tmp_path / "x").exists()
+
+
+def test_colmap_option_overrides_reach_the_options_and_refuse_unknown_paths():
+    """``set_options`` (the mapper experiments of benchmarks/simulate_scale.py --remap) sets
+    nested pycolmap options by dotted path and names a path pycolmap does not have."""
+    from coverplan.errors import ParameterError
+    from coverplan.sfm.colmap import set_options
+    options = pycolmap.GlobalPipelineOptions()
+    set_options(options, {"mapper.ba_num_iterations": 1, "mapper.global_positioning.min_num_view_per_track": 6})
+    assert options.mapper.ba_num_iterations == 1
+    assert options.mapper.global_positioning.min_num_view_per_track == 6
+    with pytest.raises(ParameterError, match="mapper.no_such_option"):
+        set_options(options, {"mapper.no_such_option": 1})
+    with pytest.raises(ParameterError, match="ba_num_iterations"):
+        set_options(options, {"mapper.ba_num_iterations": "many"})

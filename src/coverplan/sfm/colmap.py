@@ -137,9 +137,26 @@ def pick_mapper(kind: str, photos: int) -> str:
     return "global" if photos > GLOBAL_MAPPING_ABOVE else "incremental"
 
 
+def set_options(options, overrides: dict | None) -> None:
+    """Set ``overrides`` ({dotted attribute path: value}, such as
+    ``{"mapper.ba_num_iterations": 1}``) on a pycolmap options object; a one-line error for a
+    path it does not have."""
+    for path, value in (overrides or {}).items():
+        *parents, name = path.split(".")
+        obj = options
+        try:
+            for part in parents:
+                obj = getattr(obj, part)
+            getattr(obj, name)
+            setattr(obj, name, value)
+        except (AttributeError, TypeError) as err:
+            raise ParameterError(f"COLMAP option {path}={value!r}: {err}") from None
+
+
 def _map(pycolmap, mapper: str, database: Path, image_dir: Path, sparse: Path, threads: int, seed: int,
-         tick) -> dict:
-    """COLMAP's models from the matched database, the known intrinsics never refined."""
+         tick, overrides: dict | None = None) -> dict:
+    """COLMAP's models from the matched database, the known intrinsics never refined.
+    ``overrides``: options set after ours (``set_options``), for experiments."""
     glob = mapper == "global"
     options = pycolmap.GlobalPipelineOptions() if glob else pycolmap.IncrementalPipelineOptions()
     options.num_threads = threads
@@ -150,10 +167,12 @@ def _map(pycolmap, mapper: str, database: Path, image_dir: Path, sparse: Path, t
         options.mapper.global_positioning.use_gpu = False
         ba = options.mapper.bundle_adjustment
         ba.refine_focal_length = ba.refine_principal_point = ba.refine_extra_params = False
+        set_options(options, overrides)
         return pycolmap.global_mapping(database, image_dir, sparse, options=options)
     options.ba_refine_focal_length = False
     options.ba_refine_principal_point = False
     options.ba_refine_extra_params = False
+    set_options(options, overrides)
     return pycolmap.incremental_mapping(database, image_dir, sparse, options=options,
                                         next_image_callback=lambda: tick(1))
 
