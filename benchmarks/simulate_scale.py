@@ -125,6 +125,7 @@ def main(argv=None):
                    "registered": sim.registered, "models": sim.models, "points": sim.points,
                    "surface_02_pct": sim.reconstructed_pct, "least_class": c, "least_class_pct": v,
                    "reconstructable": sim.reconstructable, "photo_width_px": sim.photo_width_px,
+                   "centre_error_median_m": sim.centre_error_m["median"], "centre_error_max_m": sim.centre_error_m["max"],
                    "neighbours": args.neighbours, "conditions": sim.conditions, "mapper": args.mapper}
             rows.append(row)
             print(f"  {sim.photos} photos: {total / 60:.1f} min, {sim.registered} registered, {sim.models} models, "
@@ -141,7 +142,7 @@ def main(argv=None):
                        *[(f"{k}_s", f"{k} s", ".0f") for k in STAGES], ("total_min", "simulate min", ".1f"),
                        ("registered", "registered", "d"), ("models", "models", "d"),
                        ("surface_02_pct", "@0.2 m %", ".1f"), ("least_class", "least class", ""),
-                       ("least_class_pct", "least %", ".1f")]))
+                       ("least_class_pct", "least %", ".1f"), ("centre_error_max_m", "worst camera m", ".2f")]))
     if remaps:
         print(table(remaps, [("photos", "photos", "d"), ("variant", "global mapper", ""), ("mapping_s", "mapping s", ".0f"),
                              ("registered", "registered", "d"), ("models", "models", "d"), ("points", "points", "d"),
