@@ -27,7 +27,7 @@ from common import MESHES, table, write_json
 from coverplan import load_scene, plan
 from coverplan.equipment.drones import get_drone
 from coverplan.progress import Progress
-from coverplan.sfm.colmap import _aligned, _map, require_pycolmap
+from coverplan.sfm.colmap import _map, aligned_models, require_pycolmap
 from coverplan.sfm.conditions import fly, get_conditions
 from coverplan.sfm.judge import judge_samples, reconstructed_surface
 from coverplan.sfm.simulate import JUDGE_SPACING_M, photo_names, simulate
@@ -60,20 +60,18 @@ def remap(route, scene, folder: Path, variant: str, conditions: str) -> dict:
     seconds = time.perf_counter() - t
     route = route.with_existing_photos()
     centres = fly(route, get_conditions(conditions), seed=0).positions  # simulate's draw (seed 0)
-    index = {name: k for k, name in enumerate(photo_names(len(route.shots)))}
-    models = sorted((_aligned(pycolmap, r, index, centres) for r in recs.values()), key=lambda m: -len(m.image_names))
+    names = photo_names(len(route.shots))
+    models = aligned_models(pycolmap, recs, names, centres)
     best = models[0] if models else None
     aligned = best is not None and best.aligned
     by = reconstructed_surface(judge_samples(scene, JUDGE_SPACING_M),
                                best.points if aligned else np.zeros((0, 3)))["by_radius"]["0.2"]
     least = min(by["by_class_pct"].items(), key=lambda kv: kv[1])
-    error = np.linalg.norm(best.centres - centres[[index[n] for n in best.image_names]], axis=1) \
-        if aligned and len(best.image_names) else np.array([np.nan])
+    error = best.centre_error_m(names, centres) if best else {"median": float("nan"), "max": float("nan")}
     return {"variant": variant, "options": REMAPS[variant], "mapping_s": seconds,
             "registered": len(best.image_names) if best else 0, "models": len(models),
             "points": int(len(best.points)) if best else 0, "surface_02_pct": by["pct"], "least_class": least[0],
-            "least_class_pct": least[1], "centre_error_median_m": float(np.median(error)),
-            "centre_error_max_m": float(np.max(error))}
+            "least_class_pct": least[1], "centre_error_median_m": error["median"], "centre_error_max_m": error["max"]}
 
 
 def growth(photos, seconds) -> float | None:

@@ -153,7 +153,7 @@ def test_field_verdict_comes_from_colmap_output(field, house):
 def test_global_mapper_rebuilds_the_same_flight(field, house, tmp_path):
     """COLMAP's global mapper (``--mapper global``) on the field draw's own matches: every photo
     in one model, aligned to where the photos were taken, the house rebuilt to the bar."""
-    from coverplan.sfm.colmap import _aligned, global_mapping_seconds, map_models
+    from coverplan.sfm.colmap import aligned_models, global_mapping_seconds, map_models
     from coverplan.sfm.simulate import photo_names
     from coverplan.sfm.conditions import fly, get_conditions
     from coverplan.sfm.judge import judge_samples, reconstructed_surface
@@ -169,8 +169,7 @@ def test_global_mapper_rebuilds_the_same_flight(field, house, tmp_path):
     total, done = log.bars_seen["SfM mapping (time estimated)"]
     assert total == global_mapping_seconds(len(names), -1) and done[0] == total
     flown = fly(route, get_conditions("field"), seed=FIELD_SEED)
-    best = max((_aligned(pycolmap, r, {n: i for i, n in enumerate(names)}, flown.positions) for r in recs.values()),
-               key=lambda m: len(m.image_names))
+    best = aligned_models(pycolmap, recs, names, flown.positions)[0]
     assert best.aligned and len(best.image_names) == len(names)
     by = reconstructed_surface(judge_samples(scene, 0.1), best.points)["by_radius"]["0.2"]
     assert by["pct"] >= 95.0 and min(by["by_class_pct"].values()) >= 90.0, by

@@ -42,6 +42,15 @@ class SfmModel:
     mean_track_length: float
     aligned: bool
 
+    def centre_error_m(self, names: list[str], true_centres: np.ndarray) -> dict:
+        """Median and max distance (m) from each registered camera to where its photo was taken
+        (``true_centres``, in the order of ``names``); NaN when the model is not aligned."""
+        if not self.aligned or not self.image_names:
+            return {"median": float("nan"), "max": float("nan")}
+        index = {name: k for k, name in enumerate(names)}
+        err = np.linalg.norm(self.centres - true_centres[[index[n] for n in self.image_names]], axis=1)
+        return {"median": float(np.median(err)), "max": float(err.max())}
+
 
 @dataclass
 class SfmResult:
@@ -167,12 +176,13 @@ def _map(pycolmap, mapper: str, database: Path, image_dir: Path, sparse: Path, t
         options.mapper.global_positioning.use_gpu = False
         ba = options.mapper.bundle_adjustment
         ba.refine_focal_length = ba.refine_principal_point = ba.refine_extra_params = False
-        set_options(options, overrides)
-        return pycolmap.global_mapping(database, image_dir, sparse, options=options)
-    options.ba_refine_focal_length = False
-    options.ba_refine_principal_point = False
-    options.ba_refine_extra_params = False
+    else:
+        options.ba_refine_focal_length = False
+        options.ba_refine_principal_point = False
+        options.ba_refine_extra_params = False
     set_options(options, overrides)
+    if glob:
+        return pycolmap.global_mapping(database, image_dir, sparse, options=options)
     return pycolmap.incremental_mapping(database, image_dir, sparse, options=options,
                                         next_image_callback=lambda: tick(1))
 
@@ -286,10 +296,16 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
         (sparse / str(k)).mkdir(exist_ok=True)
         rec.write(sparse / str(k))  # COLMAP's own files, for its GUI and for independent checks
 
+    return SfmResult(aligned_models(pycolmap, recs, names, true_centres), verified, matched, seconds, mapper)
+
+
+def aligned_models(pycolmap, recs: dict, names: list[str], true_centres: np.ndarray) -> list[SfmModel]:
+    """COLMAP's models (``recs``, as its mappers return them), each aligned to the true camera
+    centres (``true_centres``, in the order of the photo ``names``), the largest first."""
     index = {name: i for i, name in enumerate(names)}
     models = [_aligned(pycolmap, rec, index, true_centres) for rec in recs.values()]
     models.sort(key=lambda m: -len(m.image_names))
-    return SfmResult(models, verified, matched, seconds, mapper)
+    return models
 
 
 POLL_S = 1.0  # seconds between reads of COLMAP's database for a bar's progress

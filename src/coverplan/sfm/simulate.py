@@ -341,11 +341,8 @@ def _simulate_once(route, scene, out_dir: Path, cond, texture: str, matching: st
     seconds["judge"] = time.perf_counter() - t
     registered = set(best.image_names) if best is not None else set()
     shot_registered = np.array([n in registered for n in names])
-    if best is not None and best.aligned and len(best.image_names):
-        err = np.linalg.norm(best.centres - centres[[names.index(n) for n in best.image_names]], axis=1)
-        centre_error = {"median": float(np.median(err)), "max": float(err.max())}
-    else:
-        centre_error = {"median": float("nan"), "max": float("nan")}
+    centre_error = best.centre_error_m(names, centres) if best is not None \
+        else {"median": float("nan"), "max": float("nan")}
     distance = surface.pop("nearest_point_m")
     surface.pop("classes")
     return Simulation(
