@@ -60,8 +60,41 @@ def test_square_ring_candidates_face_their_wall_square_on():
 def gabled():
     scene = load_scene(MESHES / "gabled_house.obj")
     camera = get_camera("phantom4pro")
-    return scene, {tilts: plan(scene, camera, gsd=0.004, security=SECURITY, view_tilts=tilts)
-                   for tilts in ("varied", "square")}
+    routes = {tilts: plan(scene, camera, gsd=0.004, security=SECURITY, view_tilts=tilts)
+              for tilts in ("varied", "square")}
+    routes["shortest"] = plan(scene, camera, gsd=0.004, security=SECURITY, reversal_m=0.0)
+    return scene, routes
+
+
+def _shot_keys(route):
+    rows = route.shots
+    return np.unique(np.round(np.column_stack([route.positions[rows], route.heading_deg[rows],
+                                               route.pitch_deg[rows]]), 6), axis=0)
+
+
+def test_the_tour_trades_a_little_path_for_fewer_reversals(gabled):
+    scene, routes = gabled
+    ours, shortest = routes["varied"], routes["shortest"]
+    # The same photos in another order: only the tour changed.
+    assert np.array_equal(_shot_keys(ours), _shot_keys(shortest))
+    assert ours.params["reversal_m"] == 12.0 and shortest.params["reversal_m"] == 0.0
+    _, turned = route_step_shape(ours)
+    _, plain = route_step_shape(shortest)
+    assert turned <= 0.6 * plain
+    assert ours.path_length <= 1.35 * shortest.path_length
+    # Fewer stops: more photos in passing, and no slower flown through.
+    assert ours.metrics["fly_through"]["photos_in_passing"] > shortest.metrics["fly_through"]["photos_in_passing"]
+    assert ours.metrics["fly_through"]["minutes"] <= shortest.metrics["fly_through"]["minutes"]
+    assert evaluate(ours, scene).safe
+    assert polyline_min_distance(ours.positions, scene.meshes, SECURITY / 10) >= SECURITY
+
+
+def test_a_negative_reversal_cost_is_refused_in_one_line(tmp_path, capsys):
+    code = main(["plan", str(MESHES / "square_prism.obj"), "--gsd", "0.004", "--security", "3", "--camera",
+                 "phantom4pro", "--reversal-cost", "-1", "-o", str(tmp_path / "r.json")])
+    assert code == 2
+    err = capsys.readouterr().err.strip()
+    assert "reversal cost (--reversal-cost)" in err and len(err.splitlines()) == 1
 
 
 def test_square_views_keep_every_guarantee_and_fly_smoother(gabled):
@@ -84,7 +117,7 @@ def test_view_tilts_flag_reaches_the_route_and_the_summary(tmp_path, capsys):
     code = main(["plan", str(MESHES / "square_prism.obj"), "--gsd", "0.004", "--security", "3", "--camera",
                  "phantom4pro", "--view-tilts", "square", "-o", str(out)])
     assert code == 0
-    assert "view tilts square" in capsys.readouterr().out
+    assert "view tilts square, a reversal costs the tour 12 m" in capsys.readouterr().out
     assert json.loads(out.read_text())["params"]["view_tilts"] == "square"
 
 

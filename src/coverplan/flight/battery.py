@@ -21,7 +21,6 @@ from coverplan.equipment.flighttime import FlightModel, leg_seconds
 from coverplan.errors import PlanningError
 from coverplan.flight.pathing import shortcut
 from coverplan.flight.route import polyline_length
-from coverplan.flight.tour import solve_tour
 from coverplan.geometry.orientation import heading_pitch
 
 MAX_ATTEMPTS = 6
@@ -142,12 +141,14 @@ def _best_split(sequence, start_s, between_s, photo_s, ground_s, limit_s):
     return best[n], cuts[::-1]
 
 
-def split_flights(fg, order, closure, fly, model: FlightModel, stops: Stops, max_seconds: float,
+def split_flights(fg, order, tour, fly, model: FlightModel, stops: Stops, max_seconds: float,
                   clearance, radius: float, floor=None) -> list[list]:
     """Flights (each a flown waypoint list from the start back to it) covering every shot of
-    the tour ``order`` once, each within ``max_seconds`` by ``model``."""
+    the tour ``order`` once, each within ``max_seconds`` by ``model``. ``tour(nodes)`` orders
+    a flight's nodes (the start first) as the planner orders the whole tour; a flight keeps
+    that order where it is quicker than the cut."""
     order = np.asarray(order)
-    n_special = len(closure)
+    n_special = len(order)
     single = fly(order)
     start_legs = _start_legs(fg, n_special, clearance, radius, floor)
     start_s = np.zeros(n_special)
@@ -180,7 +181,7 @@ def split_flights(fg, order, closure, fly, model: FlightModel, stops: Stops, max
         for run in runs:
             sub = np.concatenate([[0], run])
             as_cut = fly(sub)
-            reordered = fly(sub[solve_tour(closure[np.ix_(sub, sub)])])
+            reordered = fly(sub[tour(sub)])
             times = [waypoint_times(model, w, stops)["total_s"] for w in (as_cut, reordered)]
             pick = int(np.argmin(times))
             flights.append((as_cut, reordered)[pick])

@@ -5,6 +5,11 @@ of moves evaluated at once with numpy (the moves taken are those of a row-by-row
 Deterministic: the same matrix gives the same tour. (OR-Tools' routing solver was measured
 first: 8.6 s for a 500-stop tour with plain descent, and time-limited guided local search
 gives run-to-run different routes.)
+
+The shortest tour turns back on itself at a quarter of the photos, and a drone flying through
+its photos must stop at each such reversal. ``plan_tour`` then runs the same moves on the
+path plus a cost per turn (``turn_costs``): ``reversal_m`` metres for every turn over 90 deg.
+The default was chosen from benchmarks/flights.py (docs/flights.md, "Lanes").
 """
 
 from __future__ import annotations
@@ -14,6 +19,8 @@ import numpy as np
 _EPS = 1e-9
 _MIN_BLOCK = 4  # rows of moves evaluated per numpy call, at first
 _MAX_CELLS = 16_384  # and at most (rows x tour length): big blocks of long tours waste work
+DEFAULT_REVERSAL_M = 12.0
+_NEAR = 16  # turn-aware moves join a node to one of its 16 nearest
 
 
 def tour_length(order, dist) -> float:
@@ -139,3 +146,188 @@ def solve_tour(dist) -> np.ndarray:
         order, b = or_opt(order, dist)
         if not (a or b):
             return order
+
+
+def turn_costs(positions, a, b, c, reversal_m: float, bend_m: float) -> np.ndarray:
+    """The cost of flying a -> b -> c at b, in metres of path: ``reversal_m`` where the
+    direction turns by more than 90 deg (the drone must stop there) plus ``bend_m`` times
+    (1 - cos turn) / 2 (the tighter the turn, the slower it is flown). Index arrays broadcast;
+    a turn at node 0 (take-off and landing) or over a step of no length costs nothing."""
+    p = positions
+    u = p[b] - p[a]
+    w = p[c] - p[b]
+    nu = np.linalg.norm(u, axis=-1)
+    nw = np.linalg.norm(w, axis=-1)
+    ok = (nu > _EPS) & (nw > _EPS) & (np.asarray(b) != 0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cos = np.where(ok, np.einsum("...i,...i->...", u, w) / (nu * nw), 1.0)
+    return np.where(ok, reversal_m * (cos < 0.0) + bend_m * 0.5 * (1.0 - cos), 0.0)
+
+
+def turned_length(order, dist, positions, reversal_m: float, bend_m: float) -> float:
+    """``tour_length`` plus the ``turn_costs`` at every node of the closed tour."""
+    t = np.asarray(order)
+    turns = turn_costs(positions, np.roll(t, 1), t, np.roll(t, -1), reversal_m, bend_m)
+    return tour_length(t, dist) + float(turns.sum())
+
+
+def _near(dist, k: int) -> np.ndarray:
+    """(n, k) each node's k nearest other nodes by ``dist``."""
+    n = len(dist)
+    k = min(k, n - 1)
+    d = dist + np.diag(np.full(n, np.inf))
+    near = np.argpartition(d, k - 1, axis=1)[:, :k]
+    return np.take_along_axis(near, np.argsort(np.take_along_axis(d, near, axis=1), axis=1), axis=1)
+
+
+def _two_opt_turns(t, dist, positions, near, reversal_m, bend_m) -> tuple[np.ndarray, bool]:
+    """2-opt on length plus turn costs: reversing t[i..k] changes the two edges at its ends and
+    the turns at the four nodes around them (the turns inside keep their angles). Only
+    reversals whose new edge joins t[i - 1] to one of its ``near`` nodes are tried."""
+    n = len(t)
+    changed = False
+    most = max(_MIN_BLOCK, _MAX_CELLS // near.shape[1])
+
+    def cost(a, b, c):
+        return turn_costs(positions, a, b, c, reversal_m, bend_m)
+
+    def moves(lo, hi):
+        where = np.empty(n, dtype=int)
+        where[t] = np.arange(n)
+        i = np.arange(lo, hi)[:, None]
+        a0, a, b, b1 = t[(i - 2) % n], t[i - 1], t[i], t[(i + 1) % n]
+        k = where[near[a[:, 0]]]
+        c0, c, d, d1 = t[(k - 1) % n], t[k], t[(k + 1) % n], t[(k + 2) % n]
+        old = dist[a, b] + dist[c, d] + cost(a0, a, b) + cost(a, b, b1) + cost(c0, c, d) + cost(c, d, d1)
+        new = dist[a, c] + dist[b, d] + cost(a0, a, c) + cost(a, c, c0) + cost(b1, b, d) + cost(b, d, d1)
+        delta = np.where((k <= i) | (k - i >= n - 2), np.inf, new - old)
+        best = np.argmin(delta, axis=1)
+        rows = np.arange(len(delta))
+        good = delta[rows, best] < -_EPS
+        return k[rows, best], good, good
+
+    improved = True
+    while improved:
+        improved = False
+        i, block = 1, _MIN_BLOCK
+        while i < n - 1:
+            i, k, _, block = _first_move(i, n - 1, moves, block, most)
+            if i is None:
+                break
+            t[i:k + 1] = t[i:k + 1][::-1].copy()
+            improved = changed = True
+            i, block = i + 1, _MIN_BLOCK
+    return t, changed
+
+
+def _or_opt_turns(t, dist, positions, near, reversal_m, bend_m, max_segment: int = 3) -> tuple[np.ndarray, bool]:
+    """Or-opt on length plus turn costs. A run t[i..i+L-1] leaves the turns at its neighbours
+    and its own ends; put between X and Y it makes the turns at X, its ends and Y. It is tried
+    next to the ``near`` nodes of its ends; places that touch its old neighbours are left to
+    2-opt (their turns would need the tour after the removal)."""
+    n = len(t)
+    changed = False
+    most = max(_MIN_BLOCK, _MAX_CELLS // (4 * near.shape[1]))
+
+    def cost(a, b, c):
+        return turn_costs(positions, a, b, c, reversal_m, bend_m)
+
+    def moves(lo, hi):
+        where = np.empty(n, dtype=int)
+        where[t] = np.arange(n)
+        i = np.arange(lo, hi)
+        f, last = t[i], t[i + length - 1]
+        f2, l0 = t[i + 1] if length > 1 else None, t[i + length - 2] if length > 1 else None
+        a, p, nx, b = t[(i - 2) % n], t[i - 1], t[(i + length) % n], t[(i + length + 1) % n]
+        ends = cost(p, f, f2) + cost(l0, last, nx) if length > 1 else cost(p, f, nx)
+        saved = (dist[p, f] + dist[last, nx] - dist[p, nx] + cost(a, p, f) + cost(last, nx, b) + ends
+                 - cost(a, p, nx) - cost(p, nx, b))
+        ends_near = np.concatenate([where[near[f]], where[near[last]]], axis=1)
+        k = np.concatenate([ends_near, ends_near - 1], axis=1) % n  # edge k: t[k] -> t[k + 1]
+        w, x, y, z = t[(k - 1) % n], t[k], t[(k + 1) % n], t[(k + 2) % n]
+        F, Lst = f[:, None], last[:, None]
+        base = dist[x, y] + cost(w, x, y) + cost(x, y, z)
+        if length > 1:
+            F2, L0 = f2[:, None], l0[:, None]
+            fwd = (dist[x, F] + dist[Lst, y] + cost(w, x, F) + cost(x, F, F2) + cost(L0, Lst, y) + cost(Lst, y, z)
+                   - base)
+            rev = (dist[x, Lst] + dist[F, y] + cost(w, x, Lst) + cost(x, Lst, L0) + cost(F2, F, y) + cost(F, y, z)
+                   - base)
+        else:
+            fwd = dist[x, F] + dist[F, y] + cost(w, x, F) + cost(x, F, y) + cost(F, y, z) - base
+            rev = fwd
+        both = np.minimum(fwd, rev)
+        # edges the run touches or whose turns involve its old neighbours
+        ii = i[:, None]
+        both[((k >= ii - 3) & (k <= ii + length)) | ((ii <= 3) & (k >= n - 2))] = np.inf
+        best = np.argmin(both, axis=1)
+        rows = np.arange(len(i))
+        return k[rows, best], both[rows, best] < saved - _EPS, fwd[rows, best] <= rev[rows, best]
+
+    improved = True
+    while improved:
+        improved = False
+        for length in range(1, max_segment + 1):
+            i, block = 1, _MIN_BLOCK
+            while i + length <= n - 1:
+                i, k, forward, block = _first_move(i, n - length, moves, block, most)
+                if i is None:
+                    break
+                seg = t[i:i + length]
+                rest = np.concatenate([t[:i], t[i + length:]])
+                pos = k if k < i - 1 else k - length
+                piece = seg if forward else seg[::-1]
+                t = np.concatenate([rest[:pos + 1], piece, rest[pos + 1:]])
+                improved = changed = True
+                i, block = i + 1, _MIN_BLOCK
+    return t, changed
+
+
+def refine_turns(order, dist, positions, reversal_m: float, bend_m: float = 0.0) -> np.ndarray:
+    """A tour that trades path for turns: 2-opt and Or-opt on ``dist`` plus ``turn_costs``
+    until neither improves, starting from ``order`` (node 0 stays first).
+
+    Parameters
+    ----------
+    order : (n,) int
+        A closed tour starting at node 0.
+    dist : (n, n) float
+        Symmetric path lengths between the nodes.
+    positions : (n, 3) float
+        Where the nodes are; the turn at a node is judged on the straight lines to its
+        neighbours in the tour.
+    reversal_m, bend_m : float
+        Metres of path a reversal (a turn over 90 deg) and a full turn back are worth.
+    """
+    positions = np.asarray(positions, dtype=float)
+    dist = np.asarray(dist, dtype=float)
+    t = np.array(order)
+    if len(t) <= 4 or (reversal_m <= 0 and bend_m <= 0):
+        return t
+    near = _near(dist, _NEAR)
+    while True:
+        t, a = _two_opt_turns(t, dist, positions, near, reversal_m, bend_m)
+        t, b = _or_opt_turns(t, dist, positions, near, reversal_m, bend_m)
+        if not (a or b):
+            return t
+
+
+def plan_tour(dist, positions, reversal_m: float = DEFAULT_REVERSAL_M) -> np.ndarray:
+    """``solve_tour`` on ``dist``, then ``refine_turns`` with ``reversal_m`` (none at 0).
+
+    Parameters
+    ----------
+    dist : (n, n) float
+        Symmetric path lengths between the start (node 0) and the shots.
+    positions : (n, 3) float
+        The nodes' positions.
+    reversal_m : float
+        Metres of path one reversal is worth.
+
+    Returns
+    -------
+    (n,) int
+        The closed tour, starting at node 0.
+    """
+    order = solve_tour(dist)
+    return refine_turns(order, dist, positions, reversal_m) if reversal_m > 0 else order

@@ -42,7 +42,7 @@ from coverplan.flight.pathing import (
 )
 from coverplan.flight.route import Route, polyline_length
 from coverplan.flight.start import check_start, default_start
-from coverplan.flight.tour import solve_tour
+from coverplan.flight.tour import plan_tour
 from coverplan.planning.settings import (
     PlanSettings,
     check_size,
@@ -448,7 +448,7 @@ def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progr
     check = closer.edge_of_hidden(check, chosen)
     uncovered = closer.uncovered(check, lost_path=not flyable.all())
     with progress.stage("tour"):
-        order = solve_tour(closure)
+        order = plan_tour(closure, specials, settings.reversal_m)
     stops = Stops(np.concatenate([[0.0], shots.heading_deg]), np.concatenate([[0.0], shots.pitch_deg]),
                   float(setup.start[2] - limits.ground_at(setup.start[None, :2])[0]))
 
@@ -461,7 +461,10 @@ def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progr
     single_path = polyline_length([p for p, _ in flights[0]])
     if setup.max_flight_min is not None and single_s > 60.0 * setup.max_flight_min:
         with progress.stage("battery flights"):
-            flights = split_flights(fg, order, closure, fly_order, setup.flight_model, stops,
+            def tour(nodes):
+                return plan_tour(closure[np.ix_(nodes, nodes)], specials[nodes], settings.reversal_m)
+
+            flights = split_flights(fg, order, tour, fly_order, setup.flight_model, stops,
                                     60.0 * setup.max_flight_min, scene.clearance_model(limits.security),
                                     limits.security + extra, floor=limits.segments_allowed)
     return Flight(flights, shots, chosen, check, uncovered, h, single_s, single_path)
@@ -501,6 +504,7 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
     if settings.surface_classes:
         params["surface_classes"] = list(settings.surface_classes)
     params["rule"] = settings.rule
+    params["reversal_m"] = settings.reversal_m
     if settings.view_tilts != "varied":
         params["view_tilts"] = settings.view_tilts
     if match is not None:
