@@ -98,7 +98,7 @@ def through_rows(names, gsd: float = 0.004, security: float = 3.0) -> list[dict]
         square = plan(scene, drone.camera, gsd=gsd, security=security, drone=drone, max_flight_min=1e6,
                       view_tilts="square")
         shortest = plan(scene, drone.camera, gsd=gsd, security=security, drone=drone, max_flight_min=1e6,
-                        reversal_m=0.0)
+                        reversal_steps=0.0)
         flights = {"ours": ours, "square": square, "shortest": shortest,
                    "scan": structure_scan(scene, drone.camera, gsd, security, ours.positions[0]),
                    "scan+grid": scan_with_roof_grid(scene, drone.camera, gsd, security, ours.positions[0])}

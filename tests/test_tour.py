@@ -5,7 +5,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from coverplan.flight.tour import nearest_neighbour, plan_tour, refine_turns, solve_tour, tour_length, turned_length
+from coverplan.flight.tour import (nearest_neighbour, plan_tour, refine_turns, solve_tour, tour_length, turned_length,
+                                   typical_step)
 
 
 def _euclidean(points):
@@ -104,3 +105,10 @@ def test_random_tours_turn_back_far_less_often():
         turned += _reversals(plan_tour(dist, points, 12.0), points)
     assert shortest >= 200
     assert turned <= 0.5 * shortest
+
+
+def test_typical_step_is_the_median_distance_to_the_nearest_shot():
+    # Shots 1, 2 and 4 m from their nearest along a line; the start (node 0) far off is not one.
+    points = np.array([[100.0, 0, 0], [0, 0, 0], [1, 0, 0], [3, 0, 0], [7, 0, 0]])
+    assert typical_step(_euclidean(points)) == 1.5  # nearest: 1, 1, 2, 4
+    assert typical_step(_euclidean(points[:2])) == 0.0

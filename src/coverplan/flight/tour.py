@@ -8,8 +8,9 @@ gives run-to-run different routes.)
 
 The shortest tour turns back on itself at a quarter of the photos, and a drone flying through
 its photos must stop at each such reversal. ``plan_tour`` then runs the same moves on the
-path plus a cost per turn (``turn_costs``): ``reversal_m`` metres for every turn over 90 deg.
-The default was chosen from benchmarks/flights.py (docs/flights.md, "Lanes").
+path plus a cost per turn (``turn_costs``): ``reversal_m`` metres for every turn over 90 deg,
+set as a number of the tour's typical steps (``typical_step``) so that it means the same at
+every GSD. The default was chosen from benchmarks/flights.py (docs/flights.md, "Lanes").
 """
 
 from __future__ import annotations
@@ -19,7 +20,7 @@ import numpy as np
 _EPS = 1e-9
 _MIN_BLOCK = 4  # rows of moves evaluated per numpy call, at first
 _MAX_CELLS = 16_384  # and at most (rows x tour length): big blocks of long tours waste work
-DEFAULT_REVERSAL_M = 12.0
+DEFAULT_REVERSAL_STEPS = 2.0
 _NEAR = 16  # turn-aware moves join a node to one of its 16 nearest
 
 
@@ -312,7 +313,16 @@ def refine_turns(order, dist, positions, reversal_m: float, bend_m: float = 0.0)
             return t
 
 
-def plan_tour(dist, positions, reversal_m: float = DEFAULT_REVERSAL_M) -> np.ndarray:
+def typical_step(dist) -> float:
+    """The median distance from a shot (nodes 1..n-1 of ``dist``) to its nearest shot; 0 for
+    fewer than two shots."""
+    d = np.asarray(dist, dtype=float)[1:, 1:]
+    if len(d) < 2:
+        return 0.0
+    return float(np.median((d + np.diag(np.full(len(d), np.inf))).min(axis=1)))
+
+
+def plan_tour(dist, positions, reversal_m: float) -> np.ndarray:
     """``solve_tour`` on ``dist``, then ``refine_turns`` with ``reversal_m`` (none at 0).
 
     Parameters

@@ -11,7 +11,7 @@ from coverplan.equipment.camera import Camera, check_positive
 from coverplan.equipment.margin import MARGINS
 from coverplan.errors import ParameterError, PlanningError
 from coverplan.flight.passing import PassRules
-from coverplan.flight.tour import DEFAULT_REVERSAL_M
+from coverplan.flight.tour import DEFAULT_REVERSAL_STEPS
 from coverplan.shots.candidates import VIEW_TILTS
 from coverplan.shots.existing import ExistingShots
 from coverplan.shots.reconstructability import MatchRule
@@ -91,10 +91,10 @@ class PlanSettings:
         square-on views, so photos along a wall share one heading; "corners" is "square"
         with the rings' tilted views kept where a ring turns a corner (steps toward lanes,
         docs/flights.md).
-    reversal_m : float
-        Metres of path the tour gives up to avoid one reversal, a photo where the direction
-        of travel turns by more than 90 deg and the drone must stop (flight/tour.py); 0: the
-        shortest tour.
+    reversal_steps : float
+        How much path the tour gives up to avoid one reversal, a photo where the direction of
+        travel turns by more than 90 deg and the drone must stop, in typical steps (the median
+        distance from a shot to its nearest; flight/tour.py); 0: the shortest tour.
     existing : ExistingShots or None
         Photos already taken (shots/existing.py): their views count toward every rule and the
         new flight takes only what they do not give.
@@ -123,7 +123,7 @@ class PlanSettings:
     fly: str = "through"
     pass_rules: PassRules = field(default_factory=PassRules)
     view_tilts: str = "varied"
-    reversal_m: float = DEFAULT_REVERSAL_M
+    reversal_steps: float = DEFAULT_REVERSAL_STEPS
     existing: ExistingShots | None = None
 
     def __post_init__(self):
@@ -167,10 +167,10 @@ class PlanSettings:
                                      f"minimum altitude {self.floor:g} m")
         if not isinstance(self.zones, Zones):
             put("zones", Zones(tuple(self.zones)))
-        if not (np.isfinite(self.reversal_m) and self.reversal_m >= 0):
-            raise ParameterError(f"the reversal cost (--reversal-cost) must be a number of metres >= 0, "
-                                 f"got {self.reversal_m!r}")
-        put("reversal_m", float(self.reversal_m))
+        if not (np.isfinite(self.reversal_steps) and self.reversal_steps >= 0):
+            raise ParameterError(f"the reversal cost (--reversal-cost) must be a number of steps >= 0, "
+                                 f"got {self.reversal_steps!r}")
+        put("reversal_steps", float(self.reversal_steps))
         if self.zone_margin is not None and not (np.isfinite(self.zone_margin) and self.zone_margin >= 0):
             raise ParameterError(f"the zone margin (--zone-margin) must be a number of metres >= 0, "
                                  f"got {self.zone_margin!r}")

@@ -42,7 +42,7 @@ from coverplan.flight.pathing import (
 )
 from coverplan.flight.route import Route, polyline_length
 from coverplan.flight.start import check_start, default_start
-from coverplan.flight.tour import plan_tour
+from coverplan.flight.tour import plan_tour, typical_step
 from coverplan.planning.settings import (
     PlanSettings,
     check_size,
@@ -410,6 +410,7 @@ class Flight:
     lattice_spacing_m: float
     single_flight_s: float
     single_flight_path_m: float
+    reversal_m: float  # the tour's cost of a reversal
 
 
 def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progress) -> Flight:
@@ -448,7 +449,8 @@ def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progr
     check = closer.edge_of_hidden(check, chosen)
     uncovered = closer.uncovered(check, lost_path=not flyable.all())
     with progress.stage("tour"):
-        order = plan_tour(closure, specials, settings.reversal_m)
+        reversal_m = settings.reversal_steps * typical_step(closure)
+        order = plan_tour(closure, specials, reversal_m)
     stops = Stops(np.concatenate([[0.0], shots.heading_deg]), np.concatenate([[0.0], shots.pitch_deg]),
                   float(setup.start[2] - limits.ground_at(setup.start[None, :2])[0]))
 
@@ -462,12 +464,12 @@ def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progr
     if setup.max_flight_min is not None and single_s > 60.0 * setup.max_flight_min:
         with progress.stage("battery flights"):
             def tour(nodes):
-                return plan_tour(closure[np.ix_(nodes, nodes)], specials[nodes], settings.reversal_m)
+                return plan_tour(closure[np.ix_(nodes, nodes)], specials[nodes], reversal_m)
 
             flights = split_flights(fg, order, tour, fly_order, setup.flight_model, stops,
                                     60.0 * setup.max_flight_min, scene.clearance_model(limits.security),
                                     limits.security + extra, floor=limits.segments_allowed)
-    return Flight(flights, shots, chosen, check, uncovered, h, single_s, single_path)
+    return Flight(flights, shots, chosen, check, uncovered, h, single_s, single_path, reversal_m)
 
 
 def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps: ClosedGaps, flight: Flight,
@@ -504,7 +506,8 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
     if settings.surface_classes:
         params["surface_classes"] = list(settings.surface_classes)
     params["rule"] = settings.rule
-    params["reversal_m"] = settings.reversal_m
+    params["reversal_steps"] = settings.reversal_steps
+    params["reversal_m"] = round(flight.reversal_m, 3)
     if settings.view_tilts != "varied":
         params["view_tilts"] = settings.view_tilts
     if match is not None:
