@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 
 from coverplan import evaluate, load_scene, plan
 from coverplan.cli import main
+from coverplan.errors import ParameterError
 from coverplan.equipment.drones import get_drone
 from coverplan.equipment.flighttime import FlightModel
 from coverplan.flight.passing import PassRules, flown_path, pass_plan, turn_angles
@@ -141,7 +142,57 @@ def test_stopping_plans_take_the_same_photos(flown):
     drone = get_drone("m3e")
     stop = plan(scene, drone.camera, gsd=0.004, security=3, drone=drone, max_flight_min=2, fly="stop")
     assert not stop.flies_through and stop.pass_speed is None
-    assert np.allclose(stop.positions, route.positions, atol=1e-4) and np.array_equal(stop.shot, route.shot)
+    # The same waypoints but for the turn points the through plan adds between photos.
+    corner = ~route.straight_points()
+    assert not stop.straight_points().any()
+    assert np.allclose(stop.positions, route.positions[corner], atol=1e-4)
+    assert np.array_equal(stop.shot, route.shot[corner])
+    # Its stopping minutes are the stop plan's: no stop where the path runs straight on.
+    assert [round(f["minutes"], 6) for f in stop.metrics["flights"]] == \
+        [round(f["minutes"], 6) for f in route.metrics["flights"]]
+    from coverplan.io.litchi import litchi_waypoints
+    stop.frame = route.frame  # the fixture's --geo-origin
+    assert len(litchi_waypoints(route)) == len(litchi_waypoints(stop))  # Litchi stops at each: none added
+
+
+def test_the_camera_turns_between_photos_and_holds_still_at_them(flown):
+    _out, route = flown
+    p, h, g = route.positions, route.heading_deg, route.pitch_deg
+    turns = np.flatnonzero(route.straight_points())
+    assert len(turns) >= route.shot.sum()  # most legs between photos turn the camera
+    for rows in route.flight_rows():
+        shots = rows[route.shot[rows]]
+        for a, b in zip(shots[:-1], shots[1:]):
+            between = np.arange(a + 1, b)
+            if not np.isin(between, turns).all() or not len(between):
+                continue
+            assert len(between) == 2
+            t1, t2 = between
+            # on the straight leg from a to b, at a quarter and three quarters of it
+            ab = p[b] - p[a]
+            for k, share in ((t1, 0.25), (t2, 0.75)):
+                assert np.allclose(p[k], p[a] + share * ab, atol=1e-3)  # the route file keeps 0.1 mm
+            # holding a's orientation, then already b's: the camera turns between t1 and t2 only
+            assert h[t1] == pytest.approx(h[a]) and g[t1] == pytest.approx(g[a])
+            assert h[t2] == pytest.approx(h[b]) and g[t2] == pytest.approx(g[b])
+            assert abs((h[b] - h[a] + 180) % 360 - 180) >= 1.0 or abs(g[b] - g[a]) >= 1.0
+
+
+def test_turning_between_photos_flies_the_same_photos_sooner():
+    scene = load_scene(MESHES / "gabled_house.obj")
+    drone = get_drone("m3e")
+    held = plan(scene, drone.camera, gsd=0.004, security=3, drone=drone, max_flight_min=1e6)
+    even = plan(scene, drone.camera, gsd=0.004, security=3, drone=drone, max_flight_min=1e6,
+                pass_rules=PassRules(turn_share=1.0))
+    assert not even.straight_points().any() and held.straight_points().any()
+    assert np.allclose(held.positions[held.shot], even.positions[even.shot])
+    assert held.path_length == pytest.approx(even.path_length)
+    fast, slow = held.metrics["fly_through"], even.metrics["fly_through"]
+    assert fast["photos_in_passing"] > slow["photos_in_passing"]
+    assert fast["minutes"] < 0.95 * slow["minutes"]
+    assert held.metrics["flights"][0]["minutes"] == pytest.approx(even.metrics["flights"][0]["minutes"])
+    with pytest.raises(ParameterError, match="turn share"):
+        PassRules(turn_share=1.5)
 
 
 def test_wpml_flies_through_as_the_reference_describes(flown):

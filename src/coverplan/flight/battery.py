@@ -66,14 +66,17 @@ def waypoint_times(model: FlightModel, waypoints, stops: Stops) -> dict:
 
 
 def flight_table(route, model: FlightModel, limit_min: float | None = None) -> list[dict]:
-    """Per flight of ``route``: minutes by ``model`` (and their parts), shots, path length, and
-    the share of the flight limit it uses."""
+    """Per flight of ``route``: minutes by ``model`` stopping at every waypoint where the path
+    turns or a photo is taken (and their parts), shots, path length, and the share of the flight
+    limit it uses."""
     ground = route.takeoff_z
+    corner = ~route.straight_points()  # no stop where the path runs straight on
     rows = []
     for k, idx in enumerate(route.flight_rows(), start=1):
         p = route.positions[idx]
-        parts = model.flight_seconds(p, route.shot[idx], route.heading_deg[idx], route.pitch_deg[idx],
-                                     float(p[0, 2] - ground))
+        stop = idx[corner[idx]]
+        parts = model.flight_seconds(route.positions[stop], route.shot[stop], route.heading_deg[stop],
+                                     route.pitch_deg[stop], float(p[0, 2] - ground))
         minutes = parts["total_s"] / 60.0
         rows.append({"flight": k, "minutes": minutes, "shots": int(route.shot[idx].sum()),
                      "waypoints": int(len(idx)), "path_m": polyline_length(p),

@@ -48,6 +48,7 @@ class PassRules:
     max_damping_m: float = 2.0  # the turn starts at most this far before the waypoint
     damping_share: float = 0.4  # and within this share of the shorter leg (both turns fit a leg)
     min_pass_speed: float = 0.3  # m/s: slower than this the drone stops instead
+    turn_share: float = 0.5  # between two photos, heading and gimbal turn over this middle share of the leg
 
     def __post_init__(self):
         for name, value in asdict(self).items():
@@ -57,6 +58,8 @@ class PassRules:
             raise ParameterError(f"pass rule max turn deg must be below 180, got {self.max_turn_deg!r}")
         if self.damping_share >= 0.5:
             raise ParameterError(f"pass rule damping share must be below 0.5, got {self.damping_share!r}")
+        if self.turn_share > 1.0:
+            raise ParameterError(f"pass rule turn share must be at most 1, got {self.turn_share!r}")
 
     def to_dict(self) -> dict:
         return asdict(self)

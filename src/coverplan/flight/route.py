@@ -12,7 +12,7 @@ import numpy as np
 from coverplan.equipment.camera import Camera
 from coverplan.errors import ParameterError, RouteFormatError
 from coverplan.files import read_json, write_atomic
-from coverplan.flight.passing import corner_offsets
+from coverplan.flight.passing import corner_offsets, turn_angles
 from coverplan.geometry.orientation import (
     angle_between_deg,
     heading_pitch,
@@ -36,6 +36,8 @@ def coverage_length(points, shot) -> float:
     rows = np.flatnonzero(shot)
     return polyline_length(np.asarray(points)[rows[0]:rows[-1] + 1]) if len(rows) else 0.0
 
+
+STRAIGHT_DEG = 0.5  # a waypoint where the path turns less is not a corner
 
 @dataclass
 class Route:
@@ -92,6 +94,17 @@ class Route:
         if self.turn_damping is None:
             return self.positions.copy()
         return self.positions + corner_offsets(self.positions, np.where(self.passing(), self.turn_damping, 0.0))
+
+    def straight_points(self) -> np.ndarray:
+        """(n,) bool: waypoints without a photo inside a flight where the path runs straight on
+        (turns under 0.5 deg), such as the turn points between photos (flight/turning.py). A
+        drone that stops at every waypoint need not stop there."""
+        out = np.zeros(len(self), dtype=bool)
+        for rows in self.flight_rows():
+            if len(rows) > 2:
+                inner = rows[1:-1]
+                out[inner] = ~self.shot[inner] & (turn_angles(self.positions[rows])[1:-1] < STRAIGHT_DEG)
+        return out
 
     def __len__(self) -> int:
         return len(self.positions)

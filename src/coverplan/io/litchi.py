@@ -28,11 +28,15 @@ HEADER = (["latitude", "longitude", "altitude(m)", "heading(deg)", "curvesize(m)
 
 
 def litchi_waypoints(route) -> list[dict]:
-    """Waypoints with their actions; consecutive ones closer than 0.5 m are merged."""
+    """Waypoints with their actions; consecutive ones closer than 0.5 m are merged, and those
+    without a photo where the path runs straight on (turn points) left out."""
     f = geo_flight(route)
     local = route.positions
+    straight = route.straight_points()  # Litchi stops at every waypoint: none where the path runs on
     out: list[dict] = []
     for k in range(len(f)):
+        if straight[k]:
+            continue
         actions = []
         if f.shot[k]:
             actions = [(ROTATE_AIRCRAFT, round(float(f.heading_true[k]), 1)),

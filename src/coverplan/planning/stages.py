@@ -43,6 +43,7 @@ from coverplan.flight.pathing import (
 from coverplan.flight.route import Route, polyline_length
 from coverplan.flight.start import check_start, default_start
 from coverplan.flight.tour import plan_tour, typical_step
+from coverplan.flight.turning import add_turn_points
 from coverplan.planning.settings import (
     PlanSettings,
     check_size,
@@ -515,8 +516,10 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
                        "min_neighbours": match.min_neighbours, "sharp_views": match.sharp_views,
                        "framed_views": match.framed_views,
                        "braced_links": match.braced, "link_test": match.link_test})
-    _final_check(route, scene, limits)
     through = None
+    if settings.fly == "through":
+        route = add_turn_points(route, settings.pass_rules.turn_share)
+    _final_check(route, scene, limits)
     if settings.fly == "through":
         through = fly_through(route, scene, limits, setup.flight_model,
                               **camera_timing(setup.asked_camera, setup.drone, setup.flight_model),
