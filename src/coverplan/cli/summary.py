@@ -61,8 +61,8 @@ def _flight_rows(route) -> list[tuple[str, str]]:
     model = m.get("flight_model") or {}
     total = sum(f["minutes"] for f in flights)
     drone = route.params.get("drone")
-    how = (f"{model.get('cruise_speed', 0):g} m/s, stops at every waypoint"
-           + (f", {drone}" if drone else ""))
+    stops = "every photo and corner" if route.straight_points().any() else "every waypoint"
+    how = f"{model.get('cruise_speed', 0):g} m/s, stops at {stops}" + (f", {drone}" if drone else "")
     limit = route.params.get("max_flight_min")
     rows = [("flight time", f"{total:.1f} min by the flight-time model ({how})"
              + (f"; limit {limit:g} min per flight" if limit else ""))]
