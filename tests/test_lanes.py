@@ -77,9 +77,9 @@ def test_the_tour_trades_a_little_path_for_fewer_reversals(gabled):
     ours, shortest = routes["varied"], routes["shortest"]
     # The same photos in another order: only the tour changed.
     assert np.array_equal(_shot_keys(ours), _shot_keys(shortest))
-    # Two typical steps: the median distance from a photo to its nearest by the flight graph.
-    assert ours.params["reversal_steps"] == 2.0 and shortest.params["reversal_m"] == 0.0
-    assert 2.0 <= ours.params["reversal_m"] <= 20.0
+    # Four typical steps: the median distance from a photo to its nearest by the flight graph.
+    assert ours.params["reversal_steps"] == 4.0 and shortest.params["reversal_m"] == 0.0
+    assert 4.0 <= ours.params["reversal_m"] <= 40.0
     _, turned = route_step_shape(ours)
     _, plain = route_step_shape(shortest)
     assert turned <= 0.6 * plain
@@ -120,7 +120,7 @@ def test_view_tilts_flag_reaches_the_route_and_the_summary(tmp_path, capsys):
                  "phantom4pro", "--view-tilts", "square", "-o", str(out)])
     assert code == 0
     shown = capsys.readouterr().out
-    assert "view tilts square, a reversal costs the tour" in shown and "m (2 steps)" in shown
+    assert "view tilts square, a reversal costs the tour" in shown and "m (4 steps)" in shown
     assert json.loads(out.read_text())["params"]["view_tilts"] == "square"
 
 

@@ -250,6 +250,7 @@ def test_pymavlink_loads_every_waypoints_file(flown):
     from pymavlink import mavutil, mavwp
 
     out, route = flown
+    photos_passed = 0
     for k in range(1, route.n_flights + 1):
         rows = route.flight_rows()[k - 1]
         loader = mavwp.MAVWPLoader()
@@ -266,8 +267,12 @@ def test_pymavlink_loads_every_waypoints_file(flown):
         accept = np.array([w.param2 for w in waypoints])
         assert (hold == 0).all()
         assert (accept[passing] > 0).all() and (accept[~passing] == 0).all()
-        assert accept[passing & route.shot[rows][1:]].max() <= PassRules().max_photo_offset_m + 1e-6
-        assert any(w.command == mavutil.mavlink.MAV_CMD_DO_CHANGE_SPEED for w in items)
+        in_passing = passing & route.shot[rows][1:]
+        assert (accept[in_passing] <= PassRules().max_photo_offset_m + 1e-6).all()
+        photos_passed += int(in_passing.sum())
+        if passing.any():  # slower legs where it flies through
+            assert any(w.command == mavutil.mavlink.MAV_CMD_DO_CHANGE_SPEED for w in items)
+    assert photos_passed >= 0.3 * route.shot.sum()
 
 
 def test_every_flight_reaches_a_mavsdk_autopilot(flown):

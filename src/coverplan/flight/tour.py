@@ -20,7 +20,7 @@ import numpy as np
 _EPS = 1e-9
 _MIN_BLOCK = 4  # rows of moves evaluated per numpy call, at first
 _MAX_CELLS = 16_384  # and at most (rows x tour length): big blocks of long tours waste work
-DEFAULT_REVERSAL_STEPS = 2.0
+DEFAULT_REVERSAL_STEPS = 4.0
 _NEAR = 16  # turn-aware moves join a node to one of its 16 nearest
 
 
