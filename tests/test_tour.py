@@ -86,10 +86,9 @@ def test_turn_aware_tour_never_costs_more_than_the_shortest_with_its_turns(n, se
     order = refine_turns(shortest, dist, points, reversal_m)
     assert order[0] == 0 and sorted(order.tolist()) == list(range(n))
     for o in (shortest, order):  # the cost is the length plus reversal_m per reversal
-        assert np.isclose(turned_length(o, dist, points, reversal_m, 0.0),
+        assert np.isclose(turned_length(o, dist, points, reversal_m),
                           tour_length(o, dist) + reversal_m * _reversals(o, points))
-    assert turned_length(order, dist, points, reversal_m, 0.0) <= turned_length(shortest, dist, points,
-                                                                                  reversal_m, 0.0) + 1e-9
+    assert turned_length(order, dist, points, reversal_m) <= turned_length(shortest, dist, points, reversal_m) + 1e-9
     assert np.array_equal(plan_tour(dist, points, reversal_m), order)
     assert np.array_equal(plan_tour(dist, points, 0.0), shortest)
 

@@ -149,10 +149,9 @@ def solve_tour(dist) -> np.ndarray:
             return order
 
 
-def turn_costs(positions, a, b, c, reversal_m: float, bend_m: float) -> np.ndarray:
+def turn_costs(positions, a, b, c, reversal_m: float) -> np.ndarray:
     """The cost of flying a -> b -> c at b, in metres of path: ``reversal_m`` where the
-    direction turns by more than 90 deg (the drone must stop there) plus ``bend_m`` times
-    (1 - cos turn) / 2 (the tighter the turn, the slower it is flown). Index arrays broadcast;
+    direction turns by more than 90 deg (the drone must stop there). Index arrays broadcast;
     a turn at node 0 (take-off and landing) or over a step of no length costs nothing."""
     p = positions
     u = p[b] - p[a]
@@ -162,13 +161,13 @@ def turn_costs(positions, a, b, c, reversal_m: float, bend_m: float) -> np.ndarr
     ok = (nu > _EPS) & (nw > _EPS) & (np.asarray(b) != 0)
     with np.errstate(invalid="ignore", divide="ignore"):
         cos = np.where(ok, np.einsum("...i,...i->...", u, w) / (nu * nw), 1.0)
-    return np.where(ok, reversal_m * (cos < 0.0) + bend_m * 0.5 * (1.0 - cos), 0.0)
+    return np.where(ok & (cos < 0.0), reversal_m, 0.0)
 
 
-def turned_length(order, dist, positions, reversal_m: float, bend_m: float) -> float:
+def turned_length(order, dist, positions, reversal_m: float) -> float:
     """``tour_length`` plus the ``turn_costs`` at every node of the closed tour."""
     t = np.asarray(order)
-    turns = turn_costs(positions, np.roll(t, 1), t, np.roll(t, -1), reversal_m, bend_m)
+    turns = turn_costs(positions, np.roll(t, 1), t, np.roll(t, -1), reversal_m)
     return tour_length(t, dist) + float(turns.sum())
 
 
@@ -181,7 +180,7 @@ def _near(dist, k: int) -> np.ndarray:
     return np.take_along_axis(near, np.argsort(np.take_along_axis(d, near, axis=1), axis=1), axis=1)
 
 
-def _two_opt_turns(t, dist, positions, near, reversal_m, bend_m) -> tuple[np.ndarray, bool]:
+def _two_opt_turns(t, dist, positions, near, reversal_m) -> tuple[np.ndarray, bool]:
     """2-opt on length plus turn costs: reversing t[i..k] changes the two edges at its ends and
     the turns at the four nodes around them (the turns inside keep their angles). Only
     reversals whose new edge joins t[i - 1] to one of its ``near`` nodes are tried."""
@@ -190,7 +189,7 @@ def _two_opt_turns(t, dist, positions, near, reversal_m, bend_m) -> tuple[np.nda
     most = max(_MIN_BLOCK, _MAX_CELLS // near.shape[1])
 
     def cost(a, b, c):
-        return turn_costs(positions, a, b, c, reversal_m, bend_m)
+        return turn_costs(positions, a, b, c, reversal_m)
 
     def moves(lo, hi):
         where = np.empty(n, dtype=int)
@@ -221,7 +220,7 @@ def _two_opt_turns(t, dist, positions, near, reversal_m, bend_m) -> tuple[np.nda
     return t, changed
 
 
-def _or_opt_turns(t, dist, positions, near, reversal_m, bend_m, max_segment: int = 3) -> tuple[np.ndarray, bool]:
+def _or_opt_turns(t, dist, positions, near, reversal_m, max_segment: int = 3) -> tuple[np.ndarray, bool]:
     """Or-opt on length plus turn costs. A run t[i..i+L-1] leaves the turns at its neighbours
     and its own ends; put between X and Y it makes the turns at X, its ends and Y. It is tried
     next to the ``near`` nodes of its ends; places that touch its old neighbours are left to
@@ -231,7 +230,7 @@ def _or_opt_turns(t, dist, positions, near, reversal_m, bend_m, max_segment: int
     most = max(_MIN_BLOCK, _MAX_CELLS // (4 * near.shape[1]))
 
     def cost(a, b, c):
-        return turn_costs(positions, a, b, c, reversal_m, bend_m)
+        return turn_costs(positions, a, b, c, reversal_m)
 
     def moves(lo, hi):
         where = np.empty(n, dtype=int)
@@ -284,7 +283,7 @@ def _or_opt_turns(t, dist, positions, near, reversal_m, bend_m, max_segment: int
     return t, changed
 
 
-def refine_turns(order, dist, positions, reversal_m: float, bend_m: float = 0.0) -> np.ndarray:
+def refine_turns(order, dist, positions, reversal_m: float) -> np.ndarray:
     """A tour that trades path for turns: 2-opt and Or-opt on ``dist`` plus ``turn_costs``
     until neither improves, starting from ``order`` (node 0 stays first).
 
@@ -297,18 +296,18 @@ def refine_turns(order, dist, positions, reversal_m: float, bend_m: float = 0.0)
     positions : (n, 3) float
         Where the nodes are; the turn at a node is judged on the straight lines to its
         neighbours in the tour.
-    reversal_m, bend_m : float
+    reversal_m : float
         Metres of path a reversal (a turn over 90 deg) and a full turn back are worth.
     """
     positions = np.asarray(positions, dtype=float)
     dist = np.asarray(dist, dtype=float)
     t = np.array(order)
-    if len(t) <= 4 or (reversal_m <= 0 and bend_m <= 0):
+    if len(t) <= 4 or reversal_m <= 0:
         return t
     near = _near(dist, _NEAR)
     while True:
-        t, a = _two_opt_turns(t, dist, positions, near, reversal_m, bend_m)
-        t, b = _or_opt_turns(t, dist, positions, near, reversal_m, bend_m)
+        t, a = _two_opt_turns(t, dist, positions, near, reversal_m)
+        t, b = _or_opt_turns(t, dist, positions, near, reversal_m)
         if not (a or b):
             return t
 
