@@ -152,16 +152,11 @@ def solve_tour(dist) -> np.ndarray:
 def turn_costs(positions, a, b, c, reversal_m: float) -> np.ndarray:
     """The cost of flying a -> b -> c at b, in metres of path: ``reversal_m`` where the
     direction turns by more than 90 deg (the drone must stop there). Index arrays broadcast;
-    a turn at node 0 (take-off and landing) or over a step of no length costs nothing."""
+    a turn at node 0 (take-off and landing) or over a step of no length costs nothing. Only
+    the sign of (b - a) . (c - b) matters, so nothing is normalised."""
     p = positions
-    u = p[b] - p[a]
-    w = p[c] - p[b]
-    nu = np.linalg.norm(u, axis=-1)
-    nw = np.linalg.norm(w, axis=-1)
-    ok = (nu > _EPS) & (nw > _EPS) & (np.asarray(b) != 0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cos = np.where(ok, np.einsum("...i,...i->...", u, w) / (nu * nw), 1.0)
-    return np.where(ok & (cos < 0.0), reversal_m, 0.0)
+    back = np.einsum("...i,...i->...", p[b] - p[a], p[c] - p[b]) < 0.0
+    return np.where(back & (np.asarray(b) != 0), reversal_m, 0.0)
 
 
 def turned_length(order, dist, positions, reversal_m: float) -> float:
