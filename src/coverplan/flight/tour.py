@@ -10,7 +10,7 @@ The shortest tour turns back on itself at a quarter of the photos, and a drone f
 its photos must stop at each such reversal. ``plan_tour`` then runs the same moves on the
 path plus a cost per turn (``turn_costs``): ``reversal_m`` metres for every turn over 90 deg,
 set as a number of the tour's typical steps (``typical_step``) so that it means the same at
-every GSD. The default was chosen from benchmarks/flights.py (docs/flights.md, "Lanes").
+every GSD. The default was chosen from benchmarks/flights.py (docs/flights.md, "The order").
 """
 
 from __future__ import annotations
