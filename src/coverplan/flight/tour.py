@@ -60,17 +60,59 @@ def _first_move(lo: int, stop: int, moves, block: int, most: int):
     return None, None, None, block
 
 
+def _reverse_while_improving(t, moves, most: int) -> tuple[np.ndarray, bool]:
+    """2-opt descent: ``moves(t, lo, hi)`` names for rows lo..hi-1 the end k of the best
+    reversal of t[i..k]; the first improving one is taken and the search goes on from the next
+    row, until a pass finds none."""
+    n = len(t)
+    changed = False
+    improved = True
+    while improved:
+        improved = False
+        i, block = 1, _MIN_BLOCK
+        while i < n - 1:
+            i, k, _, block = _first_move(i, n - 1, lambda lo, hi: moves(t, lo, hi), block, most)
+            if i is None:
+                break
+            t[i:k + 1] = t[i:k + 1][::-1].copy()
+            improved = changed = True
+            i, block = i + 1, _MIN_BLOCK
+    return t, changed
+
+
+def _move_runs_while_improving(t, moves, most: int, max_segment: int, last: int) -> tuple[np.ndarray, bool]:
+    """Or-opt descent: for runs of 1..max_segment stops ending at tour position ``last`` at the
+    latest, ``moves(t, lo, hi, length)`` names per row the tour edge k to put the run on and
+    whether forwards; the first improving move is taken, until a pass finds none."""
+    changed = False
+    improved = True
+    while improved:
+        improved = False
+        for length in range(1, max_segment + 1):
+            i, block = 1, _MIN_BLOCK
+            while i + length <= last:
+                i, k, forward, block = _first_move(i, last - length + 1, lambda lo, hi: moves(t, lo, hi, length),
+                                                   block, most)
+                if i is None:
+                    break
+                seg = t[i:i + length]
+                rest = np.concatenate([t[:i], t[i + length:]])
+                pos = k if k < i - 1 else k - length  # edge k of the tour is edge pos of the rest
+                piece = seg if forward else seg[::-1]
+                t = np.concatenate([rest[:pos + 1], piece, rest[pos + 1:]])
+                improved = changed = True
+                i, block = i + 1, _MIN_BLOCK
+    return t, changed
+
+
 def two_opt(order, dist) -> tuple[np.ndarray, bool]:
     """Reverse segments while that shortens the tour (best move per first edge, first edges
     in tour order)."""
     t = np.array(order)
     n = len(t)
-    changed = False
-    improved = True
     cols = np.arange(n)
-    most = max(_MIN_BLOCK, _MAX_CELLS // n)
 
-    def moves(lo, hi):
+    def moves(t, lo, hi):
         i = np.arange(lo, hi)
         a, b = t[i - 1], t[i]
         c, d = t, np.roll(t, -1)
@@ -80,29 +122,16 @@ def two_opt(order, dist) -> tuple[np.ndarray, bool]:
         good = delta[np.arange(len(i)), best] < -_EPS
         return best, good, good
 
-    while improved:
-        improved = False
-        i, block = 1, _MIN_BLOCK
-        while i < n - 1:
-            i, k, _, block = _first_move(i, n - 1, moves, block, most)
-            if i is None:
-                break
-            t[i:k + 1] = t[i:k + 1][::-1].copy()
-            improved = changed = True
-            i, block = i + 1, _MIN_BLOCK
-    return t, changed
+    return _reverse_while_improving(t, moves, max(_MIN_BLOCK, _MAX_CELLS // n))
 
 
 def or_opt(order, dist, max_segment: int = 3) -> tuple[np.ndarray, bool]:
     """Move runs of 1..max_segment stops elsewhere (either way round) while that helps."""
     t = np.array(order)
     n = len(t)
-    changed = False
-    improved = True
     cols = np.arange(n)
-    most = max(_MIN_BLOCK, _MAX_CELLS // n)
 
-    def moves(lo, hi):
+    def moves(t, lo, hi, length):
         i = np.arange(lo, hi)
         first, last = t[i], t[i + length - 1]
         prev, nxt = t[i - 1], t[(i + length) % n]
@@ -117,22 +146,8 @@ def or_opt(order, dist, max_segment: int = 3) -> tuple[np.ndarray, bool]:
         rows = np.arange(len(i))
         return best, both[rows, best] < saved - _EPS, fwd[rows, best] <= rev[rows, best]
 
-    while improved:
-        improved = False
-        for length in range(1, max_segment + 1):
-            i, block = 1, _MIN_BLOCK
-            while i + length <= n:
-                i, k, forward, block = _first_move(i, n - length + 1, moves, block, most)
-                if i is None:
-                    break
-                seg = t[i:i + length]
-                rest = np.concatenate([t[:i], t[i + length:]])
-                pos = k if k < i - 1 else k - length  # edge k of the tour is edge pos of the rest
-                piece = seg if forward else seg[::-1]
-                t = np.concatenate([rest[:pos + 1], piece, rest[pos + 1:]])
-                improved = changed = True
-                i, block = i + 1, _MIN_BLOCK
-    return t, changed
+    # a run may end at the tour's last stop
+    return _move_runs_while_improving(t, moves, max(_MIN_BLOCK, _MAX_CELLS // n), max_segment, n)
 
 
 def solve_tour(dist) -> np.ndarray:
@@ -180,13 +195,11 @@ def _two_opt_turns(t, dist, positions, near, reversal_m) -> tuple[np.ndarray, bo
     the turns at the four nodes around them (the turns inside keep their angles). Only
     reversals whose new edge joins t[i - 1] to one of its ``near`` nodes are tried."""
     n = len(t)
-    changed = False
-    most = max(_MIN_BLOCK, _MAX_CELLS // near.shape[1])
 
     def cost(a, b, c):
         return turn_costs(positions, a, b, c, reversal_m)
 
-    def moves(lo, hi):
+    def moves(t, lo, hi):
         where = np.empty(n, dtype=int)
         where[t] = np.arange(n)
         i = np.arange(lo, hi)[:, None]
@@ -201,18 +214,7 @@ def _two_opt_turns(t, dist, positions, near, reversal_m) -> tuple[np.ndarray, bo
         good = delta[rows, best] < -_EPS
         return k[rows, best], good, good
 
-    improved = True
-    while improved:
-        improved = False
-        i, block = 1, _MIN_BLOCK
-        while i < n - 1:
-            i, k, _, block = _first_move(i, n - 1, moves, block, most)
-            if i is None:
-                break
-            t[i:k + 1] = t[i:k + 1][::-1].copy()
-            improved = changed = True
-            i, block = i + 1, _MIN_BLOCK
-    return t, changed
+    return _reverse_while_improving(t, moves, max(_MIN_BLOCK, _MAX_CELLS // near.shape[1]))
 
 
 def _or_opt_turns(t, dist, positions, near, reversal_m, max_segment: int = 3) -> tuple[np.ndarray, bool]:
@@ -221,13 +223,11 @@ def _or_opt_turns(t, dist, positions, near, reversal_m, max_segment: int = 3) ->
     next to the ``near`` nodes of its ends; places that touch its old neighbours are left to
     2-opt (their turns would need the tour after the removal)."""
     n = len(t)
-    changed = False
-    most = max(_MIN_BLOCK, _MAX_CELLS // (4 * near.shape[1]))
 
     def cost(a, b, c):
         return turn_costs(positions, a, b, c, reversal_m)
 
-    def moves(lo, hi):
+    def moves(t, lo, hi, length):
         where = np.empty(n, dtype=int)
         where[t] = np.arange(n)
         i = np.arange(lo, hi)
@@ -259,23 +259,9 @@ def _or_opt_turns(t, dist, positions, near, reversal_m, max_segment: int = 3) ->
         rows = np.arange(len(i))
         return k[rows, best], both[rows, best] < saved - _EPS, fwd[rows, best] <= rev[rows, best]
 
-    improved = True
-    while improved:
-        improved = False
-        for length in range(1, max_segment + 1):
-            i, block = 1, _MIN_BLOCK
-            while i + length <= n - 1:
-                i, k, forward, block = _first_move(i, n - length, moves, block, most)
-                if i is None:
-                    break
-                seg = t[i:i + length]
-                rest = np.concatenate([t[:i], t[i + length:]])
-                pos = k if k < i - 1 else k - length
-                piece = seg if forward else seg[::-1]
-                t = np.concatenate([rest[:pos + 1], piece, rest[pos + 1:]])
-                improved = changed = True
-                i, block = i + 1, _MIN_BLOCK
-    return t, changed
+    # the run's next stop (its turn is judged) is inside the tour: it ends at n - 2 at the latest
+    return _move_runs_while_improving(t, moves, max(_MIN_BLOCK, _MAX_CELLS // (4 * near.shape[1])), max_segment,
+                                      n - 1)
 
 
 def refine_turns(order, dist, positions, reversal_m: float) -> np.ndarray:

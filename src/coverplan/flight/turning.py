@@ -62,10 +62,8 @@ def add_turn_points(route: Route, share: float) -> Route:
         za, zb = route.ground_z[legs], route.ground_z[legs + 1]
         ground = np.insert(route.ground_z, where, np.column_stack([za + edge * (zb - za),
                                                                    zb - edge * (zb - za)]).ravel())
-    legs_kind = list(route.leg)
-    for k in legs[::-1]:
-        legs_kind[k + 1:k + 1] = [route.leg[k + 1]] * 2
+    kind = np.array(route.leg, dtype=object)
     return Route(np.insert(p, where, new_p, axis=0), np.insert(route.shot, where, False), np.insert(h, where, new_h),
-                 np.insert(g, where, new_g), legs_kind, route.camera, route.params, frame=route.frame,
+                 np.insert(g, where, new_g), np.insert(kind, where, kind[where]).tolist(), route.camera, route.params, frame=route.frame,
                  uncovered=route.uncovered, metrics=route.metrics, extra=route.extra,
                  flight=np.insert(route.flight, where, route.flight[legs + 1].repeat(2)), ground_z=ground)
