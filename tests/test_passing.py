@@ -181,8 +181,10 @@ def test_the_camera_turns_between_photos_and_holds_still_at_them(flown):
 def test_turning_between_photos_flies_the_same_photos_sooner():
     scene = load_scene(MESHES / "gabled_house.obj")
     drone = get_drone("m3e")
-    held = plan(scene, drone.camera, gsd=0.004, security=3, drone=drone, max_flight_min=1e6)
-    even = plan(scene, drone.camera, gsd=0.004, security=3, drone=drone, max_flight_min=1e6,
+    # The tour without a re-aim cost, so that most legs turn the camera (the default flies
+    # more photos that look the same way one after another and gains less from turn points).
+    held = plan(scene, drone.camera, gsd=0.004, security=3, drone=drone, max_flight_min=1e6, reaim_steps=0.0)
+    even = plan(scene, drone.camera, gsd=0.004, security=3, drone=drone, max_flight_min=1e6, reaim_steps=0.0,
                 pass_rules=PassRules(turn_share=1.0))
     assert not even.straight_points().any() and held.straight_points().any()
     assert np.allclose(held.positions[held.shot], even.positions[even.shot])
@@ -232,14 +234,15 @@ def test_wpml_flies_through_as_the_reference_describes(flown):
         # the two turns of a leg fit in it (the reference's note on turn intercepts)
         both = np.array(damping[:-1]) + np.array(damping[1:])
         assert ((both < legs) | (both == 0)).all()
-        # the gimbal turns evenly along the legs that arrive at a pitch change flown through
+        # the gimbal turns evenly along the legs that arrive at a pitch change flown through (or at
+        # a stop without a photo, from which a photo is flown through at that pitch)
         for group in doc.xpath(".//wpml:actionGroup[wpml:action/wpml:actionActuatorFunc='gimbalEvenlyRotate']",
                                namespaces=ns):
             assert group.findtext("wpml:actionTrigger/wpml:actionTriggerType", namespaces=ns) == \
                 "betweenAdjacentPoints"
             start = int(group.findtext("wpml:actionGroupStartIndex", namespaces=ns))
             assert int(group.findtext("wpml:actionGroupEndIndex", namespaces=ns)) == start + 1
-            assert route.passing()[rows[start + 1]]
+            assert route.passing()[rows[start + 1]] or not route.shot[rows[start + 1]]
         speeds = [float(m.findtext("wpml:waypointSpeed", namespaces=ns)) for m in marks]
         passing = route.passing()[rows]
         for j in np.flatnonzero(passing):  # no leg at a pass faster than the pass speed

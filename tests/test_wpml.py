@@ -3,6 +3,7 @@ reference marks required, and round-tripped against the route."""
 
 from __future__ import annotations
 
+import copy
 import zipfile
 
 import numpy as np
@@ -152,6 +153,18 @@ def mission(request, tmp_path_factory):
     out = tmp_path_factory.mktemp(drone.name)
     [path] = export_route(route, out / "house", ["wpml"])
     return drone, route, path
+
+
+def test_the_first_photo_sets_the_gimbal_even_at_the_start_points_pitch(mission, tmp_path):
+    # At take-off the gimbal is wherever the pilot left it: a flight whose photos all look
+    # level (the start waypoint's pitch too) must still command that pitch before the first.
+    _drone, route, _path = mission
+    level = copy.deepcopy(route)
+    level.pitch_deg[:] = 0.0
+    [path] = export_route(level, tmp_path / "level", ["wpml"])
+    marks = read_kmz(path)[1].findall("kml:Document/kml:Folder/kml:Placemark", NS)
+    held = held_pitch(marks)
+    assert [held[k] for k in np.flatnonzero(level.shot)] == [0.0] * int(level.shot.sum())
 
 
 def test_wpml_has_every_required_element_and_the_drone(mission):

@@ -203,14 +203,19 @@ def _placemark(folder, k, f, heading, executed: bool, heights, speed, action_sta
         else:
             prev = heading[k - 1] if k else heading[k]
             _actions(pm, action_state["group"], k, heading[k], f.pitch[k], prev, action_state["photo"], lens)
+            action_state["gimbal"] = round(float(f.pitch[k]), 2)
         action_state["group"] += 1
         action_state["photo"] += 1
-    if k + 1 < len(f) and passes[0][k + 1] and f.pitch[k + 1] != f.pitch[k]:
-        # the next waypoint is flown through: the gimbal reaches its pitch along the leg there
+    stop_photo = k + 1 < len(f) and f.shot[k + 1] and not passes[0][k + 1]
+    if k + 1 < len(f) and not stop_photo and round(float(f.pitch[k + 1]), 2) != action_state["gimbal"]:
+        # The gimbal reaches the next waypoint's pitch along the leg there, unless a stop with a
+        # photo turns it on arrival. Compared with the pitch last commanded, not the previous
+        # waypoint's: at take-off the gimbal is wherever the pilot left it.
         _group(pm, action_state["group"], k, k + 1, "betweenAdjacentPoints",
                [("gimbalEvenlyRotate", [("gimbalPitchRotateAngle", round(float(f.pitch[k + 1]), 2)),
                                         ("payloadPositionIndex", 0)])])
         action_state["group"] += 1
+        action_state["gimbal"] = round(float(f.pitch[k + 1]), 2)
 
 
 def _document(route, f, profile, heights, modes, speed: float, executed: bool) -> bytes:
@@ -249,7 +254,7 @@ def _document(route, f, profile, heights, modes, speed: float, executed: bool) -
         payload = _add(folder, "payloadParam")
         _add(payload, "payloadPositionIndex", 0)
         _add(payload, "imageFormat", profile.image_format)
-    state = {"group": 0, "photo": 1}
+    state = {"group": 0, "photo": 1, "gimbal": None}
     passing = route.passing()
     damping = route.turn_damping if route.turn_damping is not None else np.zeros(len(f))
     passes = (passing, damping, leg_speeds(route, speed), route.flies_through)
