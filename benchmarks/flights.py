@@ -16,8 +16,9 @@ QGroundControl's Structure Scan and the scan plus a nadir roof grid (70/70 overl
 through by the same model and drone: photos, minutes, path, photos in passing, smooth steps
 (consecutive photos within 10 deg of heading and 5 deg of gimbal pitch) and reversing steps
 (the direction from one photo to the next turns by more than 90 deg) per 100 photos; and the
-plan with square-on views only (``--view-tilts square``) and the shortest tour
-(``--reversal-cost 0``) beside the default, each re-checked by the evaluator (coverage at 0.25 m).
+plan with square-on views only (``--view-tilts square``), the shortest tour
+(``--reversal-cost 0 --reaim-cost 0``) and the tour without the re-aim cost (``--reaim-cost 0``)
+beside the default, each re-checked by the evaluator (coverage at 0.25 m).
 ``--quick``: the ring prism (4 mm/px, 3 m security) at one limit, and three scenes.
 """
 
@@ -98,13 +99,15 @@ def through_rows(names, gsd: float = 0.004, security: float = 3.0) -> list[dict]
         square = plan(scene, drone.camera, gsd=gsd, security=security, drone=drone, max_flight_min=1e6,
                       view_tilts="square")
         shortest = plan(scene, drone.camera, gsd=gsd, security=security, drone=drone, max_flight_min=1e6,
-                        reversal_steps=0.0)
-        flights = {"ours": ours, "square": square, "shortest": shortest,
+                        reversal_steps=0.0, reaim_steps=0.0)
+        noreaim = plan(scene, drone.camera, gsd=gsd, security=security, drone=drone, max_flight_min=1e6,
+                       reaim_steps=0.0)
+        flights = {"ours": ours, "square": square, "shortest": shortest, "noreaim": noreaim,
                    "scan": structure_scan(scene, drone.camera, gsd, security, ours.positions[0]),
                    "scan+grid": scan_with_roof_grid(scene, drone.camera, gsd, security, ours.positions[0])}
         row = {"scene": name, "ours_stop_min": ours.metrics["flights"][0]["minutes"]}
         for key, route in flights.items():
-            if key in ("ours", "square", "shortest"):
+            if key in ("ours", "square", "shortest", "noreaim"):
                 through = route.metrics["fly_through"]
                 row[f"{key}_coverage_pct"] = evaluate(route, scene).coverage_pct
             else:
@@ -119,6 +122,7 @@ def through_rows(names, gsd: float = 0.004, security: float = 3.0) -> list[dict]
         row["ours_vs_grid_min"] = row["ours_min"] / row["scan+grid_min"]
         row["square_vs_grid_min"] = row["square_min"] / row["scan+grid_min"]
         row["shortest_vs_grid_min"] = row["shortest_min"] / row["scan+grid_min"]
+        row["noreaim_vs_grid_min"] = row["noreaim_min"] / row["scan+grid_min"]
         rows.append(row)
         print(f"  flew {name}", flush=True)
     return rows
@@ -162,7 +166,8 @@ def main(argv=None):
                           ("ours_coverage_pct", "ours @0.25 m %", ".2f"),
                           ("square_coverage_pct", "square @0.25 m %", ".2f"),
                           ("square_vs_grid_min", "square/grid min", ".2f")]))
-    print("the tour with a reversal cost (default) beside the shortest tour (--reversal-cost 0), same photos:")
+    print("the default tour (reversal and re-aim costs) beside the shortest tour (--reversal-cost 0 --reaim-cost 0) "
+          "and the tour without the re-aim cost (--reaim-cost 0), same photos:")
     print(table(passing, [("scene", "scene", ""), ("ours_photos", "photos", "d"),
                           ("shortest_min", "shortest through min", ".2f"), ("ours_min", "ours through min", ".2f"),
                           ("shortest_path_m", "shortest path m", ".0f"), ("ours_path_m", "ours path m", ".0f"),
@@ -172,6 +177,16 @@ def main(argv=None):
                           ("ours_reversals_per_100", "ours rev/100", ".1f"),
                           ("shortest_smooth_pct", "shortest smooth %", ".0f"), ("ours_smooth_pct", "ours smooth %", ".0f"),
                           ("shortest_vs_grid_min", "shortest/grid min", ".2f"), ("ours_vs_grid_min", "ours/grid min", ".2f"),
+                          ("ours_coverage_pct", "ours @0.25 m %", ".2f")]))
+    print(table(passing, [("scene", "scene", ""), ("noreaim_min", "no re-aim through min", ".2f"),
+                          ("ours_min", "ours through min", ".2f"), ("noreaim_path_m", "no re-aim path m", ".0f"),
+                          ("ours_path_m", "ours path m", ".0f"), ("noreaim_smooth_pct", "no re-aim smooth %", ".0f"),
+                          ("ours_smooth_pct", "ours smooth %", ".0f"),
+                          ("noreaim_reversals_per_100", "no re-aim rev/100", ".1f"),
+                          ("ours_reversals_per_100", "ours rev/100", ".1f"),
+                          ("noreaim_passing_pct", "no re-aim in passing %", ".0f"),
+                          ("ours_passing_pct", "ours in passing %", ".0f"),
+                          ("noreaim_vs_grid_min", "no re-aim/grid min", ".2f"),
                           ("ours_coverage_pct", "ours @0.25 m %", ".2f")]))
     path = write_json("flights", args.quick, {"rows": splits, "model_vs_simple": timings, "flying_through": passing})
     print(f"written {path}")

@@ -27,7 +27,7 @@ from common import MESHES, table, write_json
 from coverplan import load_scene, plan
 from coverplan.equipment.drones import get_drone
 from coverplan.progress import Progress
-from coverplan.sfm.colmap import _map, aligned_models, require_pycolmap
+from coverplan.sfm.colmap import MAX_FEATURES, _map, aligned_models, require_pycolmap
 from coverplan.sfm.conditions import fly, get_conditions
 from coverplan.sfm.judge import judge_samples, reconstructed_surface
 from coverplan.sfm.simulate import JUDGE_SPACING_M, photo_names, simulate
@@ -93,6 +93,8 @@ def main(argv=None):
     parser.add_argument("--neighbours", type=int, default=20, help="spatial matching: nearest photos per photo")
     parser.add_argument("--conditions", default="field", choices=["ideal", "field", "harsh"])
     parser.add_argument("--mapper", default="global", choices=["incremental", "global"])
+    parser.add_argument("--max-features", type=int, default=MAX_FEATURES,
+                        help=f"SIFT features per photo at most (default {MAX_FEATURES}, COLMAP's)")
     parser.add_argument("--keep", default=None, help="folder to keep photos and COLMAP files in")
     parser.add_argument("--tag", default=None, help="write results/simulate_scale_TAG.json (runs split over sessions)")
     parser.add_argument("--remap", nargs="*", default=[], choices=sorted(REMAPS),
@@ -115,7 +117,7 @@ def main(argv=None):
             t = time.perf_counter()
             sim = simulate(route, scene, out / f"gsd_{1e4 * gsd:.0f}", conditions=args.conditions, draws=1,
                            width=args.width, exhaustive_limit=0, spatial_neighbours=args.neighbours, mapper=args.mapper,
-                           progress=Progress(bars=True, verbose=True))
+                           max_features=args.max_features, progress=Progress(bars=True, verbose=True))
             total = time.perf_counter() - t
             c, v = sim.least_class
             row = {"gsd_mm": 1000 * gsd, "photos": sim.photos, "plan_s": plan_s, "total_s": total,
@@ -124,7 +126,7 @@ def main(argv=None):
                    "surface_02_pct": sim.reconstructed_pct, "least_class": c, "least_class_pct": v,
                    "reconstructable": sim.reconstructable, "photo_width_px": sim.photo_width_px,
                    "centre_error_median_m": sim.centre_error_m["median"], "centre_error_max_m": sim.centre_error_m["max"],
-                   "neighbours": args.neighbours, "conditions": sim.conditions, "mapper": args.mapper}
+                   "neighbours": args.neighbours, "max_features": args.max_features, "conditions": sim.conditions, "mapper": args.mapper}
             rows.append(row)
             print(f"  {sim.photos} photos: {total / 60:.1f} min, {sim.registered} registered, {sim.models} models, "
                   f"{sim.reconstructed_pct:.1f} % @0.2 m", flush=True)

@@ -8,6 +8,7 @@ import pytest
 from coverplan import evaluate, get_camera, load_scene, plan
 from coverplan.cli import main
 from coverplan.flight.lanes import route_step_shape, step_shape
+from coverplan.flight.tour import DEFAULT_REAIM_STEPS, DEFAULT_REVERSAL_STEPS
 from coverplan.shots.candidates import facade_rings
 from coverplan.shots.reachability import scene_limits
 from coverplan.world.scene import scene_from_meshes
@@ -62,7 +63,10 @@ def gabled():
     camera = get_camera("phantom4pro")
     routes = {tilts: plan(scene, camera, gsd=0.004, security=SECURITY, view_tilts=tilts)
               for tilts in ("varied", "square")}
-    routes["shortest"] = plan(scene, camera, gsd=0.004, security=SECURITY, reversal_steps=0.0)
+    routes["shortest"] = plan(scene, camera, gsd=0.004, security=SECURITY, reversal_steps=0.0, reaim_steps=0.0)
+    routes["no re-aim cost"] = plan(scene, camera, gsd=0.004, security=SECURITY, reaim_steps=0.0)
+    routes["square, no re-aim cost"] = plan(scene, camera, gsd=0.004, security=SECURITY, view_tilts="square",
+                                            reaim_steps=0.0)
     return scene, routes
 
 
@@ -74,12 +78,12 @@ def _shot_keys(route):
 
 def test_the_tour_trades_a_little_path_for_fewer_reversals(gabled):
     scene, routes = gabled
-    ours, shortest = routes["varied"], routes["shortest"]
+    ours, shortest = routes["no re-aim cost"], routes["shortest"]
     # The same photos in another order: only the tour changed.
     assert np.array_equal(_shot_keys(ours), _shot_keys(shortest))
-    # Four typical steps: the median distance from a photo to its nearest by the flight graph.
-    assert ours.params["reversal_steps"] == 4.0 and shortest.params["reversal_m"] == 0.0
-    assert 4.0 <= ours.params["reversal_m"] <= 40.0
+    # Six typical steps: the median distance from a photo to its nearest by the flight graph.
+    assert ours.params["reversal_steps"] == DEFAULT_REVERSAL_STEPS == 6.0 and shortest.params["reversal_m"] == 0.0
+    assert 6.0 <= ours.params["reversal_m"] <= 60.0
     _, turned = route_step_shape(ours)
     _, plain = route_step_shape(shortest)
     assert turned <= 0.6 * plain
@@ -91,12 +95,32 @@ def test_the_tour_trades_a_little_path_for_fewer_reversals(gabled):
     assert polyline_min_distance(ours.positions, scene.meshes, SECURITY / 10) >= SECURITY
 
 
+def test_the_tour_flies_photos_that_look_the_same_way_one_after_another(gabled):
+    scene, routes = gabled
+    ours, plain = routes["varied"], routes["no re-aim cost"]
+    assert np.array_equal(_shot_keys(ours), _shot_keys(plain))
+    assert ours.params["reaim_steps"] == DEFAULT_REAIM_STEPS == 2.0 and plain.params["reaim_m"] == 0.0
+    # Both costs are counted in the same typical step.
+    assert ours.params["reaim_m"] == pytest.approx(ours.params["reversal_m"] / 3.0, abs=1e-3)
+    smooth, reversals = route_step_shape(ours)
+    plain_smooth, plain_reversals = route_step_shape(plain)
+    assert smooth >= plain_smooth + 15.0 and reversals <= plain_reversals
+    assert ours.path_length <= 1.25 * plain.path_length
+    assert ours.metrics["fly_through"]["minutes"] <= 1.1 * plain.metrics["fly_through"]["minutes"]
+    assert evaluate(ours, scene).safe
+
+
 def test_a_negative_reversal_cost_is_refused_in_one_line(tmp_path, capsys):
     code = main(["plan", str(MESHES / "square_prism.obj"), "--gsd", "0.004", "--security", "3", "--camera",
                  "phantom4pro", "--reversal-cost", "-1", "-o", str(tmp_path / "r.json")])
     assert code == 2
     err = capsys.readouterr().err.strip()
     assert "reversal cost (--reversal-cost)" in err and len(err.splitlines()) == 1
+    code = main(["plan", str(MESHES / "square_prism.obj"), "--gsd", "0.004", "--security", "3", "--camera",
+                 "phantom4pro", "--reaim-cost", "nan", "-o", str(tmp_path / "r.json")])
+    assert code == 2
+    err = capsys.readouterr().err.strip()
+    assert "re-aim cost (--reaim-cost)" in err and len(err.splitlines()) == 1
 
 
 def test_square_views_keep_every_guarantee_and_fly_smoother(gabled):
@@ -109,8 +133,10 @@ def test_square_views_keep_every_guarantee_and_fly_smoother(gabled):
     assert m["shot_graph"]["components"] == 1
     smooth, reversals = route_step_shape(square)
     assert (smooth, reversals) == (square.metrics["smooth_steps_pct"], square.metrics["reversals_per_100"])
-    # Photos along a wall share a heading: many more smooth steps than the varied views give.
-    assert smooth >= route_step_shape(varied)[0] + 15.0
+    # Photos along a wall share a heading: many more smooth steps than the varied views give in a
+    # tour that does not prefer them, and more than the varied views in one that does.
+    assert route_step_shape(routes["square, no re-aim cost"])[0] >= route_step_shape(routes["no re-aim cost"])[0] + 15.0
+    assert smooth > route_step_shape(varied)[0]
     assert square.params["view_tilts"] == "square" and "view_tilts" not in varied.params
 
 
@@ -120,7 +146,8 @@ def test_view_tilts_flag_reaches_the_route_and_the_summary(tmp_path, capsys):
                  "phantom4pro", "--view-tilts", "square", "-o", str(out)])
     assert code == 0
     shown = capsys.readouterr().out
-    assert "view tilts square, a reversal costs the tour" in shown and "m (4 steps)" in shown
+    assert "view tilts square, a reversal costs the tour" in shown and "m (6 steps)" in shown
+    assert "a step that turns the camera" in shown and "m (2 steps)" in shown
     assert json.loads(out.read_text())["params"]["view_tilts"] == "square"
 
 

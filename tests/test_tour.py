@@ -5,8 +5,9 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from coverplan.flight.tour import (nearest_neighbour, plan_tour, refine_turns, solve_tour, tour_length, turned_length,
-                                   typical_step)
+from coverplan.flight.lanes import step_shape
+from coverplan.flight.tour import (nearest_neighbour, plan_tour, reaim_costs, refine_turns, solve_tour, tour_length,
+                                   turned_length, typical_step)
 
 
 def _euclidean(points):
@@ -111,3 +112,28 @@ def test_typical_step_is_the_median_distance_to_the_nearest_shot():
     points = np.array([[100.0, 0, 0], [0, 0, 0], [1, 0, 0], [3, 0, 0], [7, 0, 0]])
     assert typical_step(_euclidean(points)) == 1.5  # nearest: 1, 1, 2, 4
     assert typical_step(_euclidean(points[:2])) == 0.0
+
+
+def test_reaim_costs_charge_the_steps_that_turn_the_camera():
+    # Node 0 is the start; 355 -> 5 deg is 10 deg across north (smooth), 5 -> 16 is not, nor a 6 deg pitch step.
+    heading = np.array([0.0, 355.0, 5.0, 16.0, 5.0])
+    pitch = np.array([-90.0, 0.0, 0.0, 0.0, -6.0])
+    cost = reaim_costs(heading, pitch, 3.0)
+    assert np.array_equal(cost, cost.T) and not cost[0].any()
+    assert cost[1, 2] == 0.0 and cost[2, 3] == 3.0 and cost[1, 3] == 3.0 and cost[2, 4] == 3.0
+    assert np.all(np.diag(cost) == 0.0)
+
+
+def test_a_reaim_cost_flies_each_heading_as_one_lane():
+    # Eight photos along a wall, alternately facing it and looking 90 deg along it: the shortest
+    # tour turns the camera at every step; with the cost it flies one heading out, the other back.
+    points = np.array([[-1.0, 0, 0]] + [[x, 0, 0] for x in range(8)])
+    heading = np.array([0.0] + [0.0 if x % 2 == 0 else 90.0 for x in range(8)])
+    pitch = np.zeros(9)
+    dist = _euclidean(points)
+    rough = reaim_costs(heading, pitch, 10.0)
+    for cost, smooth_steps in ((None, 0), (rough, 6)):
+        order = plan_tour(dist, points, 0.0, cost)
+        assert sorted(order) == list(range(9)) and order[0] == 0
+        smooth, _ = step_shape(points[order[1:]], heading[order[1:]], pitch[order[1:]])
+        assert smooth == 100.0 * smooth_steps / 7

@@ -16,7 +16,7 @@ from coverplan.errors import CoverplanError, ParameterError
 from coverplan.evaluation import evaluate
 from coverplan.flight.missions import mission_to_route
 from coverplan.flight.route import Route
-from coverplan.flight.tour import DEFAULT_REVERSAL_STEPS
+from coverplan.flight.tour import DEFAULT_REAIM_STEPS, DEFAULT_REVERSAL_STEPS
 from coverplan.geometry.geo import check_crs
 from coverplan.io import GEOGRAPHIC_FORMATS, export_route, parse_formats, read_mission
 from coverplan.io.load import _check_geodetic_origin, load_scene
@@ -265,6 +265,7 @@ def _plan_options(args) -> dict:
                 lp_time_limit=args.lp_time_limit, surface_classes=args.only, pose_margin=args.margin,
                 keep_out=tuple(args.keep_out), keep_in=tuple(args.keep_in), zone_margin=args.zone_margin,
                 fly=args.fly, view_tilts=args.view_tilts, reversal_steps=args.reversal_cost,
+                reaim_steps=args.reaim_cost,
                 max_memory=None if args.max_memory_gb is None
                 else check_positive("--max-memory-gb", args.max_memory_gb) * 1e9)
 
@@ -493,6 +494,10 @@ def _add_planning_args(p):
                    help=f"how much path the tour gives up to avoid one reversal (a photo where the flight turns back "
                         f"by more than 90 deg and must stop), in typical steps between neighbouring photos (default "
                         f"{DEFAULT_REVERSAL_STEPS:g}; 0: the shortest tour; docs/flights.md, \"The order\")")
+    p.add_argument("--reaim-cost", type=float, default=DEFAULT_REAIM_STEPS, metavar="STEPS",
+                   help=f"how much path the tour gives up to fly next to each other two photos whose camera need "
+                        f"not turn between them (heading within 10 deg, pitch within 5 deg), in typical steps "
+                        f"(default {DEFAULT_REAIM_STEPS:g}; 0: no preference)")
     p.add_argument("--min-views", type=int, default=None, help="views per surface point (default 3; thesis rule 2)")
     p.add_argument("--min-triangulation-deg", type=float, default=5.0)
     p.add_argument("--max-pair-deg", type=float, default=None, metavar="DEG",

@@ -78,7 +78,9 @@ def _flight_rows(route) -> list[tuple[str, str]]:
                                      f"within 5 deg), {m['reversals_per_100']:.0f} reversals per 100 photos; "
                                      f"view tilts {route.params.get('view_tilts', 'varied')}, a reversal costs the tour "
                                      f"{route.params.get('reversal_m', 0.0):.1f} m "
-                                     f"({route.params.get('reversal_steps', 0.0):g} steps)"))
+                                     f"({route.params.get('reversal_steps', 0.0):g} steps), a step that turns the "
+                                     f"camera {route.params.get('reaim_m', 0.0):.1f} m "
+                                     f"({route.params.get('reaim_steps', 0.0):g} steps)"))
     if len(flights) > 1:
         extra = route.path_length / m["single_flight_path_m"] if m.get("single_flight_path_m") else float("nan")
         rows.append(("flights", f"{len(flights)}, each from the start point back to it; path {extra:.2f}x one "

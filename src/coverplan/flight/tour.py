@@ -10,17 +10,23 @@ The shortest tour turns back on itself at a quarter of the photos, and a drone f
 its photos must stop at each such reversal. ``plan_tour`` then runs the same moves on the
 path plus a cost per turn (``turn_costs``): ``reversal_m`` metres for every turn over 90 deg,
 set as a number of the tour's typical steps (``typical_step``) so that it means the same at
-every GSD. The default was chosen from benchmarks/flights.py (docs/flights.md, "The order").
+every GSD. Each step between two photos whose camera must turn (not a smooth step: heading
+more than 10 deg or gimbal pitch more than 5 deg apart) costs ``reaim_m`` more
+(``reaim_costs``), so photos that look the same way are flown one after another, in lanes.
+The defaults were chosen from benchmarks/flights.py (docs/flights.md, "The order").
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from coverplan.flight.lanes import SMOOTH_HEADING_DEG, SMOOTH_PITCH_DEG
+
 _EPS = 1e-9
 _MIN_BLOCK = 4  # rows of moves evaluated per numpy call, at first
 _MAX_CELLS = 16_384  # and at most (rows x tour length): big blocks of long tours waste work
-DEFAULT_REVERSAL_STEPS = 4.0
+DEFAULT_REVERSAL_STEPS = 6.0
+DEFAULT_REAIM_STEPS = 2.0
 _NEAR = 16  # turn-aware moves join a node to one of its 16 nearest
 
 
@@ -302,8 +308,21 @@ def typical_step(dist) -> float:
     return float(np.median((d + np.diag(np.full(len(d), np.inf))).min(axis=1)))
 
 
-def plan_tour(dist, positions, reversal_m: float) -> np.ndarray:
-    """``solve_tour`` on ``dist``, then ``refine_turns`` with ``reversal_m`` (none at 0).
+def reaim_costs(heading_deg, pitch_deg, reaim_m: float) -> np.ndarray:
+    """(n, n) ``reaim_m`` between two nodes whose step would not be smooth (heading more than
+    10 deg or gimbal pitch more than 5 deg apart, flight/lanes.py), else 0; node 0 (the start)
+    costs nothing."""
+    heading = np.asarray(heading_deg, dtype=float)
+    pitch = np.asarray(pitch_deg, dtype=float)
+    turn = np.abs((heading[:, None] - heading[None, :] + 180.0) % 360.0 - 180.0)
+    rough = (turn > SMOOTH_HEADING_DEG) | (np.abs(pitch[:, None] - pitch[None, :]) > SMOOTH_PITCH_DEG)
+    rough[0, :] = rough[:, 0] = False
+    return np.where(rough, float(reaim_m), 0.0)
+
+
+def plan_tour(dist, positions, reversal_m: float, step_cost=None) -> np.ndarray:
+    """``solve_tour`` on ``dist`` (plus ``step_cost``), then ``refine_turns`` with
+    ``reversal_m`` (none at 0).
 
     Parameters
     ----------
@@ -313,11 +332,15 @@ def plan_tour(dist, positions, reversal_m: float) -> np.ndarray:
         The nodes' positions.
     reversal_m : float
         Metres of path one reversal is worth.
+    step_cost : (n, n) float, optional
+        Metres added to each step's path (``reaim_costs``).
 
     Returns
     -------
     (n,) int
         The closed tour, starting at node 0.
     """
+    if step_cost is not None:
+        dist = np.asarray(dist, dtype=float) + step_cost
     order = solve_tour(dist)
     return refine_turns(order, dist, positions, reversal_m) if reversal_m > 0 else order

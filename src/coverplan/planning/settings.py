@@ -11,7 +11,7 @@ from coverplan.equipment.camera import Camera, check_positive
 from coverplan.equipment.margin import MARGINS
 from coverplan.errors import ParameterError, PlanningError
 from coverplan.flight.passing import PassRules
-from coverplan.flight.tour import DEFAULT_REVERSAL_STEPS
+from coverplan.flight.tour import DEFAULT_REAIM_STEPS, DEFAULT_REVERSAL_STEPS
 from coverplan.shots.candidates import VIEW_TILTS
 from coverplan.shots.existing import ExistingShots
 from coverplan.shots.reconstructability import MatchRule
@@ -95,6 +95,10 @@ class PlanSettings:
         How much path the tour gives up to avoid one reversal, a photo where the direction of
         travel turns by more than 90 deg and the drone must stop, in typical steps (the median
         distance from a shot to its nearest; flight/tour.py); 0: the shortest tour.
+    reaim_steps : float
+        How much path the tour gives up to fly two photos one after the other whose camera
+        need not turn between them (a smooth step: heading within 10 deg, gimbal pitch within
+        5 deg), in typical steps; 0: no preference.
     existing : ExistingShots or None
         Photos already taken (shots/existing.py): their views count toward every rule and the
         new flight takes only what they do not give.
@@ -124,6 +128,7 @@ class PlanSettings:
     pass_rules: PassRules = field(default_factory=PassRules)
     view_tilts: str = "varied"
     reversal_steps: float = DEFAULT_REVERSAL_STEPS
+    reaim_steps: float = DEFAULT_REAIM_STEPS
     existing: ExistingShots | None = None
 
     def __post_init__(self):
@@ -171,6 +176,10 @@ class PlanSettings:
             raise ParameterError(f"the reversal cost (--reversal-cost) must be a number of steps >= 0, "
                                  f"got {self.reversal_steps!r}")
         put("reversal_steps", float(self.reversal_steps))
+        if not (np.isfinite(self.reaim_steps) and self.reaim_steps >= 0):
+            raise ParameterError(f"the re-aim cost (--reaim-cost) must be a number of steps >= 0, "
+                                 f"got {self.reaim_steps!r}")
+        put("reaim_steps", float(self.reaim_steps))
         if self.zone_margin is not None and not (np.isfinite(self.zone_margin) and self.zone_margin >= 0):
             raise ParameterError(f"the zone margin (--zone-margin) must be a number of metres >= 0, "
                                  f"got {self.zone_margin!r}")

@@ -42,7 +42,7 @@ from coverplan.flight.pathing import (
 )
 from coverplan.flight.route import Route, polyline_length
 from coverplan.flight.start import check_start, default_start
-from coverplan.flight.tour import plan_tour, typical_step
+from coverplan.flight.tour import plan_tour, reaim_costs, typical_step
 from coverplan.flight.turning import add_turn_points
 from coverplan.planning.settings import (
     PlanSettings,
@@ -412,6 +412,7 @@ class Flight:
     single_flight_s: float
     single_flight_path_m: float
     reversal_m: float  # the tour's cost of a reversal
+    reaim_m: float  # and of a step that turns the camera
 
 
 def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progress) -> Flight:
@@ -450,8 +451,11 @@ def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progr
     check = closer.edge_of_hidden(check, chosen)
     uncovered = closer.uncovered(check, lost_path=not flyable.all())
     with progress.stage("tour"):
-        reversal_m = settings.reversal_steps * typical_step(closure)
-        order = plan_tour(closure, specials, reversal_m)
+        step = typical_step(closure)
+        reversal_m, reaim_m = settings.reversal_steps * step, settings.reaim_steps * step
+        reaim = reaim_costs(np.concatenate([[0.0], shots.heading_deg]), np.concatenate([[0.0], shots.pitch_deg]),
+                            reaim_m)
+        order = plan_tour(closure, specials, reversal_m, reaim)
     stops = Stops(np.concatenate([[0.0], shots.heading_deg]), np.concatenate([[0.0], shots.pitch_deg]),
                   float(setup.start[2] - limits.ground_at(setup.start[None, :2])[0]))
 
@@ -465,12 +469,12 @@ def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progr
     if setup.max_flight_min is not None and single_s > 60.0 * setup.max_flight_min:
         with progress.stage("battery flights"):
             def tour(nodes):
-                return plan_tour(closure[np.ix_(nodes, nodes)], specials[nodes], reversal_m)
+                return plan_tour(closure[np.ix_(nodes, nodes)], specials[nodes], reversal_m, reaim[np.ix_(nodes, nodes)])
 
             flights = split_flights(fg, order, tour, fly_order, setup.flight_model, stops,
                                     60.0 * setup.max_flight_min, scene.clearance_model(limits.security),
                                     limits.security + extra, floor=limits.segments_allowed)
-    return Flight(flights, shots, chosen, check, uncovered, h, single_s, single_path, reversal_m)
+    return Flight(flights, shots, chosen, check, uncovered, h, single_s, single_path, reversal_m, reaim_m)
 
 
 def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps: ClosedGaps, flight: Flight,
@@ -509,6 +513,8 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
     params["rule"] = settings.rule
     params["reversal_steps"] = settings.reversal_steps
     params["reversal_m"] = round(flight.reversal_m, 3)
+    params["reaim_steps"] = settings.reaim_steps
+    params["reaim_m"] = round(flight.reaim_m, 3)
     if settings.view_tilts != "varied":
         params["view_tilts"] = settings.view_tilts
     if match is not None:
