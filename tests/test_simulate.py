@@ -356,6 +356,21 @@ def test_too_few_sift_features_are_refused_before_anything_is_rendered(house, tm
     assert not (tmp_path / "x").exists()
 
 
+def test_bad_matching_sizes_are_refused_in_one_line_before_anything_is_rendered(house, tmp_path, capsys):
+    from coverplan.cli import main
+    scene, route = house
+    with pytest.raises(ParameterError, match=r"spatial neighbours \(--neighbours\) must be a whole number"):
+        simulate(route, scene, tmp_path / "x", spatial_neighbours=0)
+    route_path = route.save(tmp_path / "house.json")
+    for flag, value, words in (("--neighbours", "0", "spatial neighbours (--neighbours)"),
+                               ("--max-features", "50", "SIFT features per photo")):
+        assert main(["simulate", str(route_path), "--target", str(MESHES / "gabled_house.obj"), flag, value,
+                     "-o", str(tmp_path / "x")]) == 2
+        err = capsys.readouterr().err.strip()
+        assert words in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "x").exists()
+
+
 def test_colmap_option_overrides_reach_the_options_and_refuse_unknown_paths():
     """``set_options`` (the mapper experiments of benchmarks/simulate_scale.py --remap) sets
     nested pycolmap options by dotted path and names a path pycolmap does not have."""

@@ -25,7 +25,7 @@ from coverplan.job import run_job, write_pictures
 from coverplan.planning.settings import DEFAULT_CEILING_M
 from coverplan.progress import Progress
 from coverplan.sfm.check import check as check_photos
-from coverplan.sfm.colmap import GLOBAL_MAPPING_ABOVE
+from coverplan.sfm.colmap import GLOBAL_MAPPING_ABOVE, MAX_FEATURES, SPATIAL_NEIGHBOURS
 from coverplan.sfm.existing import read_existing
 from coverplan.sfm.simulate import Simulation, simulate
 from coverplan.shots.reconstructability import LINK_TESTS, MatchRule
@@ -391,8 +391,8 @@ def _simulate(route, scene, out_dir, args) -> int:
     if args.draws < 1:
         raise ParameterError(f"--draws must be at least 1, got {args.draws}")
     sim = simulate(route, scene, out, conditions=args.conditions, draws=args.draws, texture=args.texture,
-                   matching=args.matching, mapper=args.mapper,
-                   width=width, threads=args.threads, progress=progress)
+                   matching=args.matching, mapper=args.mapper, spatial_neighbours=args.neighbours,
+                   max_features=args.max_features, width=width, threads=args.threads, progress=progress)
     sim.save(out / "simulation.json")
     if getattr(args, "json", False):
         print(json.dumps(sim.to_dict(), indent=1, default=float))
@@ -424,6 +424,12 @@ def _add_simulate_args(p):
     p.add_argument("--matching", default="spatial", choices=("spatial", "covisible"),
                    help="pairs matched in flights over 80 photos: spatial (default, COLMAP's spatial matcher on the "
                         "photos' GNSS tags, as you would run it) or covisible (pairs whose rendered views overlap)")
+    p.add_argument("--neighbours", type=int, default=SPATIAL_NEIGHBOURS, metavar="N",
+                   help=f"spatial matching: each photo is matched with its N nearest (default {SPATIAL_NEIGHBOURS}; "
+                        "fewer match faster, for flights of many hundred photos)")
+    p.add_argument("--max-features", type=int, default=MAX_FEATURES, metavar="N",
+                   help=f"SIFT features per photo at most (default {MAX_FEATURES}, COLMAP's; fewer match and map "
+                        "faster)")
     _add_mapper_arg(p)
     p.add_argument("--texture", default="noise", choices=("noise", "cells"),
                    help="texture family under field/harsh conditions: noise (value noise) or cells (cellular stone)")

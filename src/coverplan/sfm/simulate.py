@@ -269,6 +269,9 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
         raise ParameterError(f"draws must be at least 1, got {draws}")
     if int(max_features) != max_features or max_features < 100:
         raise ParameterError(f"SIFT features per photo must be a whole number of at least 100, got {max_features!r}")
+    if int(spatial_neighbours) != spatial_neighbours or spatial_neighbours < 1:
+        raise ParameterError(f"spatial neighbours (--neighbours) must be a whole number of at least 1, "
+                             f"got {spatial_neighbours!r}")
     route = route.with_existing_photos()  # planned around photos already taken: SfM gets old and new
     if len(route.shots) < 2:
         raise ParameterError(f"the route has {len(route.shots)} photo(s); SfM needs at least 2")
