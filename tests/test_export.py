@@ -17,7 +17,7 @@ from pyproj import Geod, Transformer
 
 from coverplan import Route, get_camera, load_scene, plan
 from coverplan.cli import main
-from coverplan.io import writer
+from coverplan.io import export_route, writer
 from tests.helpers import MESHES
 
 HOUSE = "FZK_GUID_1F3E679D-E226-4535-926C-7390977FB25A"
@@ -83,8 +83,36 @@ def test_qgc_plan(route, tmp_path):
     assert angle_diff([i["params"][3] for i in nav], expect).max() < 0.5
     photos = sum(1 for i in items if i["command"] == 2000)
     assert photos == route.shot.sum()
-    gimbal = [i["params"][0] for i in items if i["command"] == 1000]
-    np.testing.assert_allclose(gimbal, route.pitch_deg[route.shot], atol=0.01)
+    # The gimbal holds the pitch last set (set before the first photo, then where it changes).
+    held, at_photo = None, []
+    for i in items:
+        if i["command"] == 1000:
+            assert i["params"][0] != held
+            held = i["params"][0]
+        elif i["command"] == 2000:
+            at_photo.append(held)
+    assert None not in at_photo
+    np.testing.assert_allclose(at_photo, route.pitch_deg[route.shot], atol=0.01)
+
+
+def test_a_plan_longer_than_px4_keeps_is_refused_and_ardupilot_gets_it(tmp_path):
+    from coverplan.errors import ParameterError
+    from coverplan.io.qgc import PX4_MISSION_ITEMS, mission_items
+    n = 400
+    wps = [{"position": [2.0 * k, 0, 10], "shot": k % 2 == 1, "heading_deg": 0, "gimbal_pitch_deg": -10.0 * (k % 4 == 1),
+            "leg": "coverage"} for k in range(n)]
+    route = Route.from_dict({"format": "coverplan-route", "version": 1, "units": "m",
+                             "frame": {"crs": "EPSG:25832", "origin": [500000, 5400000, 0]},
+                             "camera": {"sensor_width_mm": 13.2, "sensor_height_mm": 8.8, "focal_length_mm": 8.8,
+                                        "image_width_px": 5472, "image_height_px": 3648},
+                             "params": {"gsd_m": 0.004, "security_m": 3.0}, "waypoints": wps})
+    items = len(mission_items(route))
+    assert items > PX4_MISSION_ITEMS
+    with pytest.raises(ParameterError, match=f"the flight has {items} mission items, but PX4 keeps at most 500"):
+        export_route(route, tmp_path / "long", ["qgc"])
+    assert not list(tmp_path.iterdir())
+    (path,) = export_route(route, tmp_path / "long", ["qgc"], firmware="ardupilot")
+    assert len(json.loads(path.read_text())["mission"]["items"]) == items
 
 
 def test_wpl(route, tmp_path):

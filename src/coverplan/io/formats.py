@@ -130,7 +130,8 @@ def parse_formats(text: str | None) -> list[str]:
 def export_route(route, stem, formats, **options) -> list[Path]:
     """Write ``route`` in each format as STEM + the format's suffix; a route of several battery
     flights as one file per flight, STEM.f1 + suffix, STEM.f2 + suffix, ... Nothing is written
-    when a flight has more waypoints than a format's app takes."""
+    when a flight has more waypoints than a format's app takes, or more mission items than
+    PX4 keeps (a QGroundControl plan for PX4)."""
     flights = [route] if route.n_flights <= 1 else [route.flight_route(k) for k in range(1, route.n_flights + 1)]
     for name in formats:
         limit = WAYPOINT_LIMITS.get(name)
@@ -139,6 +140,14 @@ def export_route(route, stem, formats, **options) -> list[Path]:
                 which = f"flight {k} has" if len(flights) > 1 else "the flight has"
                 raise ParameterError(f"{which} {len(flight)} waypoints, but {name} missions take at most {limit}; "
                                      "plan shorter flights (--max-flight-min) or export another format")
+    if "qgc" in formats and options.get("firmware", "px4") == "px4":
+        for k, flight in enumerate(flights, start=1):
+            items = len(qgc.mission_items(flight, options.get("speed", 5.0)))
+            if items > qgc.PX4_MISSION_ITEMS:
+                which = f"flight {k} has" if len(flights) > 1 else "the flight has"
+                raise ParameterError(f"{which} {items} mission items, but PX4 keeps at most {qgc.PX4_MISSION_ITEMS} "
+                                     "on a flight controller; plan shorter flights (--max-flight-min) or export "
+                                     "another format (--firmware ardupilot if that is the autopilot)")
     written = []
     for name in formats:
         func, suffix = writer(name)

@@ -2,8 +2,14 @@
 
 Mission: take-off, then per waypoint a MAV_CMD_NAV_WAYPOINT (yaw = true heading, altitude
 relative to home in MAV_FRAME_GLOBAL_RELATIVE_ALT); at shots a gimbal pitch
-(MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW) and one photo (MAV_CMD_IMAGE_START_CAPTURE); return to
-launch at the end. NaN parameters are written as null, as QGroundControl does.
+(MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW) where it differs from the last one set, and one photo
+(MAV_CMD_IMAGE_START_CAPTURE); return to launch at the end. NaN parameters are written as
+null, as QGroundControl does.
+
+PX4 keeps at most ``PX4_MISSION_ITEMS`` (500) mission items on a flight controller
+(NUM_MISSIONS_SUPPORTED in its navigator; only its simulator takes more) and answers a longer
+upload with MAV_MISSION_NO_SPACE, so ``export_route`` refuses a longer PX4 .plan; ArduPilot's
+limit depends on the board's storage.
 
 A route flown through (flight/passing.py) keeps hold 0 at every waypoint; a waypoint flown
 through gets an acceptance radius (param 2): the photo's offset bound at a photo, the turn's
@@ -35,6 +41,7 @@ DO_GIMBAL_MANAGER_PITCHYAW, IMAGE_START_CAPTURE = 1000, 2000
 FRAME_GLOBAL, FRAME_MISSION, FRAME_GLOBAL_RELATIVE_ALT = 0, 2, 3
 FIRMWARE = {"px4": 12, "ardupilot": 3}
 MAV_TYPE_QUADROTOR = 2
+PX4_MISSION_ITEMS = 500
 NAN = float("nan")
 
 
@@ -49,6 +56,7 @@ def mission_items(route, speed: float = 5.0) -> list[tuple[int, int, list[float]
             "max_photo_offset_m", PassRules().max_photo_offset_m))
         radius = np.where(route.shot, offset_bound, route.turn_damping) * passing
         legs, current = leg_speeds(route, speed), float(speed)
+    gimbal = None
     for k in range(1, len(f)):
         if through and abs(legs[k - 1] - current) > 1e-3:
             current = float(legs[k - 1])
@@ -57,8 +65,10 @@ def mission_items(route, speed: float = 5.0) -> list[tuple[int, int, list[float]
         items.append((NAV_WAYPOINT, FRAME_GLOBAL_RELATIVE_ALT,
                       [0.0, accept, 0.0, round(float(f.heading_true[k]), 3), f.lat[k], f.lon[k], f.alt_rel[k]]))
         if f.shot[k]:
-            items.append((DO_GIMBAL_MANAGER_PITCHYAW, FRAME_MISSION,
-                          [round(float(f.pitch[k]), 3), 0.0, NAN, NAN, 0.0, 0.0, 0.0]))
+            pitch = round(float(f.pitch[k]), 3)
+            if pitch != gimbal:  # the gimbal holds its pitch; the first photo always sets it
+                items.append((DO_GIMBAL_MANAGER_PITCHYAW, FRAME_MISSION, [pitch, 0.0, NAN, NAN, 0.0, 0.0, 0.0]))
+                gimbal = pitch
             items.append((IMAGE_START_CAPTURE, FRAME_MISSION, [0.0, 0.0, 1.0, 0.0, NAN, NAN, NAN]))
     items.append((NAV_RETURN_TO_LAUNCH, FRAME_MISSION, [0.0] * 7))
     return items
