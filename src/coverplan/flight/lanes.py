@@ -17,6 +17,14 @@ SMOOTH_HEADING_DEG = 10.0
 SMOOTH_PITCH_DEG = 5.0
 
 
+def smooth_step(heading_a, pitch_a, heading_b, pitch_b) -> np.ndarray:
+    """Whether a step from orientation a to b is smooth (heading within 10 deg across north,
+    gimbal pitch within 5 deg); arrays broadcast."""
+    turn = np.abs((np.asarray(heading_b, float) - np.asarray(heading_a, float) + 180.0) % 360.0 - 180.0)
+    tilt = np.abs(np.asarray(pitch_b, float) - np.asarray(pitch_a, float))
+    return (turn <= SMOOTH_HEADING_DEG) & (tilt <= SMOOTH_PITCH_DEG)
+
+
 def step_shape(positions, heading_deg, pitch_deg) -> tuple[float, float]:
     """Smooth steps and reversals of photos taken in this order.
 
@@ -38,9 +46,8 @@ def step_shape(positions, heading_deg, pitch_deg) -> tuple[float, float]:
     n = len(positions)
     if n < 2:
         return 100.0, 0.0
-    turn = np.abs((np.diff(np.asarray(heading_deg, float)) + 180.0) % 360.0 - 180.0)
-    tilt = np.abs(np.diff(np.asarray(pitch_deg, float)))
-    smooth = 100.0 * float(np.mean((turn <= SMOOTH_HEADING_DEG) & (tilt <= SMOOTH_PITCH_DEG)))
+    heading, pitch = np.asarray(heading_deg, float), np.asarray(pitch_deg, float)
+    smooth = 100.0 * float(np.mean(smooth_step(heading[:-1], pitch[:-1], heading[1:], pitch[1:])))
     step = np.diff(positions, axis=0)
     step = step[np.linalg.norm(step, axis=1) > 1e-6]
     back = np.einsum("ij,ij->i", step[:-1], step[1:]) < 0.0

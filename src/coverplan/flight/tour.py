@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from coverplan.flight.lanes import SMOOTH_HEADING_DEG, SMOOTH_PITCH_DEG
+from coverplan.flight.lanes import smooth_step
 
 _EPS = 1e-9
 _MIN_BLOCK = 4  # rows of moves evaluated per numpy call, at first
@@ -314,8 +314,7 @@ def reaim_costs(heading_deg, pitch_deg, reaim_m: float) -> np.ndarray:
     costs nothing."""
     heading = np.asarray(heading_deg, dtype=float)
     pitch = np.asarray(pitch_deg, dtype=float)
-    turn = np.abs((heading[:, None] - heading[None, :] + 180.0) % 360.0 - 180.0)
-    rough = (turn > SMOOTH_HEADING_DEG) | (np.abs(pitch[:, None] - pitch[None, :]) > SMOOTH_PITCH_DEG)
+    rough = ~smooth_step(heading[:, None], pitch[:, None], heading[None, :], pitch[None, :])
     rough[0, :] = rough[:, 0] = False
     return np.where(rough, float(reaim_m), 0.0)
 

@@ -206,16 +206,17 @@ def _placemark(folder, k, f, heading, executed: bool, heights, speed, action_sta
             action_state["gimbal"] = round(float(f.pitch[k]), 2)
         action_state["group"] += 1
         action_state["photo"] += 1
-    stop_photo = k + 1 < len(f) and f.shot[k + 1] and not passes[0][k + 1]
-    if k + 1 < len(f) and not stop_photo and round(float(f.pitch[k + 1]), 2) != action_state["gimbal"]:
+    last = k + 1 == len(f)
+    stop_photo = not last and f.shot[k + 1] and not passes[0][k + 1]
+    pitch_next = None if last else round(float(f.pitch[k + 1]), 2)
+    if not last and not stop_photo and pitch_next != action_state["gimbal"]:
         # The gimbal reaches the next waypoint's pitch along the leg there, unless a stop with a
         # photo turns it on arrival. Compared with the pitch last commanded, not the previous
         # waypoint's: at take-off the gimbal is wherever the pilot left it.
         _group(pm, action_state["group"], k, k + 1, "betweenAdjacentPoints",
-               [("gimbalEvenlyRotate", [("gimbalPitchRotateAngle", round(float(f.pitch[k + 1]), 2)),
-                                        ("payloadPositionIndex", 0)])])
+               [("gimbalEvenlyRotate", [("gimbalPitchRotateAngle", pitch_next), ("payloadPositionIndex", 0)])])
         action_state["group"] += 1
-        action_state["gimbal"] = round(float(f.pitch[k + 1]), 2)
+        action_state["gimbal"] = pitch_next
 
 
 def _document(route, f, profile, heights, modes, speed: float, executed: bool) -> bytes:

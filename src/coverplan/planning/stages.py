@@ -453,10 +453,10 @@ def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progr
     with progress.stage("tour"):
         step = typical_step(closure)
         reversal_m, reaim_m = settings.reversal_steps * step, settings.reaim_steps * step
-        reaim = reaim_costs(np.concatenate([[0.0], shots.heading_deg]), np.concatenate([[0.0], shots.pitch_deg]),
-                            reaim_m)
+        heading, pitch = np.concatenate([[0.0], shots.heading_deg]), np.concatenate([[0.0], shots.pitch_deg])
+        reaim = reaim_costs(heading, pitch, reaim_m)
         order = plan_tour(closure, specials, reversal_m, reaim)
-    stops = Stops(np.concatenate([[0.0], shots.heading_deg]), np.concatenate([[0.0], shots.pitch_deg]),
+    stops = Stops(heading, pitch,
                   float(setup.start[2] - limits.ground_at(setup.start[None, :2])[0]))
 
     def fly_order(o):
