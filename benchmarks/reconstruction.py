@@ -18,6 +18,7 @@ import time
 from pathlib import Path
 
 from common import MESHES, table, write_json
+from plan_scenes import SCENES  # every sample scene; "fig411" is the thesis prism with its obstacle
 from coverplan import evaluate, get_camera, load_scene, plan
 from coverplan.progress import Progress
 from coverplan.shots.reconstructability import MatchRule
@@ -25,13 +26,6 @@ from coverplan.sfm.colmap import SPATIAL_NEIGHBOURS
 from coverplan.sfm.simulate import simulate
 from structure_scan import scan_with_roof_grid, structure_scan
 
-SCENES = {
-    "ring": ("ring_prism.obj", []),  # terrace and overhang
-    "courtyard": ("courtyard.obj", []),
-    "gabled": ("gabled_house.obj", []),
-    "fig411": ("thesis_prism.obj", ["fig411_obstacles.obj"]),  # thesis prism with the Figure 4.11 obstacle
-    "chapel": ("chapel.obj", []),  # a nave and a 24 m tower: tall, narrow faces
-}
 CAMERA, GSD, SECURITY = "phantom4pro", 0.004, 3.0
 SPEED, SHOT_SECONDS = 5.0, 1.0
 

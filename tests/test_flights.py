@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -9,6 +10,7 @@ import pytest
 import trimesh
 
 from coverplan import evaluate, load_scene, plan
+from coverplan.cli import main
 from coverplan.equipment.drones import DRONES, get_drone, with_gimbal
 from coverplan.equipment.flighttime import FlightModel
 from coverplan.errors import ParameterError
@@ -109,6 +111,43 @@ def test_flights_survive_the_route_file_and_export_one_file_each(ring, tmp_path)
     assert names == sorted([f"r.f{k}.plan" for k in range(1, n + 1)] + [f"r.f{k}.kmz" for k in range(1, n + 1)])
     for k in range(1, n + 1):
         assert back.flight_route(k).shot.sum() == split.metrics["flights"][k - 1]["shots"]
+
+
+def test_flights_split_to_fit_a_mission_item_limit(ring, tmp_path):
+    """With a limit of a third of the one-flight plan's mission items (PX4 keeps 500), the
+    flights come apart so that each exported .plan holds at most that many, read back from the
+    files; together they take the one-flight plan's photos, each once, safely."""
+    scene, drone, single, _split = ring
+    single_items = len(json.loads(export_route(single, tmp_path / "one", ["qgc"], firmware="ardupilot")[0].read_text())["mission"]["items"])
+    limit = single_items // 3
+    split = plan(scene, drone.camera, gsd=0.004, security=3.0, drone=drone, max_flight_min=1e6,
+                 max_mission_items=limit)
+    assert split.params["max_mission_items"] == limit
+    assert split.n_flights >= 3
+    files = export_route(split, tmp_path / "split", ["qgc"])
+    counts = [len(json.loads(f.read_text())["mission"]["items"]) for f in files]
+    assert len(counts) == split.n_flights and max(counts) <= limit
+    mine = np.round(np.column_stack([split.positions, split.heading_deg])[split.shot], 6)
+    theirs = np.round(np.column_stack([single.positions, single.heading_deg])[single.shot], 6)
+    assert len(np.unique(mine, axis=0)) == len(mine)
+    np.testing.assert_array_equal(np.unique(mine, axis=0), np.unique(theirs, axis=0))
+    meshes = [p.mesh for p in scene.parts]
+    assert polyline_min_distance(split.positions, meshes, step=0.5) >= split.security - 1e-6
+
+
+def test_plan_exporting_for_px4_keeps_each_flight_within_500_items(tmp_path, capsys):
+    """The ring's one flight for a Mavic 3 Enterprise comes to over 900 mission items, which
+    PX4 refuses; ``plan --export qgc`` (PX4 by default) splits it into flights that fit."""
+    out = tmp_path / "ring.json"
+    code = main(["plan", str(MESHES / "ring_prism.obj"), "--drone", "m3e", "--gsd", "0.004", "--security", "3",
+                 "--crs", "EPSG:25832", "--export", "qgc", "-o", str(out), "--no-evaluate"])
+    assert code == 0
+    assert "min and 500 mission items per flight" in capsys.readouterr().out
+    route = Route.load(out)
+    assert route.params["max_mission_items"] == 500 and route.n_flights >= 2
+    counts = [len(json.loads((tmp_path / f"ring.f{k}.plan").read_text())["mission"]["items"])
+              for k in range(1, route.n_flights + 1)]
+    assert max(counts) <= 500 and sum(counts) > 500
 
 
 def test_a_gimbal_that_cannot_look_up_never_points_up():

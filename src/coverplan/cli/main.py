@@ -20,6 +20,7 @@ from coverplan.flight.tour import DEFAULT_REAIM_STEPS, DEFAULT_REVERSAL_STEPS
 from coverplan.geometry.geo import check_crs
 from coverplan.io import GEOGRAPHIC_FORMATS, export_route, parse_formats, read_mission
 from coverplan.io.load import _check_geodetic_origin, load_scene
+from coverplan.io.qgc import PX4_MISSION_ITEMS
 from coverplan.io.zones import read_zones
 from coverplan.job import run_job, write_pictures
 from coverplan.planning.settings import DEFAULT_CEILING_M
@@ -234,6 +235,8 @@ def cmd_plan(args) -> int:
     # --start is in the input models' coordinates, like the meshes: move it with them.
     start = None if args.start is None else scene.to_local(args.start)
     options = _plan_options(args)
+    if options["max_mission_items"] is None and "qgc" in formats and args.firmware == "px4":
+        options["max_mission_items"] = PX4_MISSION_ITEMS  # a longer flight would be refused at export
     if args.existing:
         with progress.stage("existing photos"):
             options["existing"] = read_existing(args.existing, scene, camera, args.gsd, args.security, progress)
@@ -261,7 +264,7 @@ def _plan_options(args) -> dict:
                 max_incidence_deg=args.max_incidence_deg, min_altitude=args.min_altitude, max_altitude=args.max_altitude,
                 spacing=args.spacing,
                 gimbal_pitch_range_deg=_gimbal(args), drone=_drone(args), flight_model=_flight_model(args),
-                max_flight_min=args.max_flight_min,
+                max_flight_min=args.max_flight_min, max_mission_items=args.max_mission_items,
                 lp_time_limit=args.lp_time_limit, surface_classes=args.only, pose_margin=args.margin,
                 keep_out=tuple(args.keep_out), keep_in=tuple(args.keep_in), zone_margin=args.zone_margin,
                 fly=args.fly, view_tilts=args.view_tilts, reversal_steps=args.reversal_cost,
@@ -540,6 +543,9 @@ def _add_planning_args(p):
     p.add_argument("--max-flight-min", type=float, default=None, metavar="MIN",
                    help="split the tour into flights of at most MIN minutes each, from the start back to it "
                         "(default: the drone's usable flight time; without --drone one flight)")
+    p.add_argument("--max-mission-items", type=int, default=None, metavar="N",
+                   help="split the tour so that each flight's QGC plan / WPL file has at most N mission items "
+                        "(default: 500, PX4's limit, when plan exports a .plan for PX4; else no limit)")
     p.add_argument("--gimbal-min-deg", type=float, default=None, help="lowest gimbal pitch (default: the drone's, else -90)")
     p.add_argument("--gimbal-max-deg", type=float, default=None, help="highest gimbal pitch (default: the drone's, else 30)")
     p.add_argument("--spacing", type=float, default=None, metavar="M",

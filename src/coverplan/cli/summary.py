@@ -64,8 +64,10 @@ def _flight_rows(route) -> list[tuple[str, str]]:
     stops = "every photo and corner" if route.straight_points().any() else "every waypoint"
     how = f"{model.get('cruise_speed', 0):g} m/s, stops at {stops}" + (f", {drone}" if drone else "")
     limit = route.params.get("max_flight_min")
+    items = route.params.get("max_mission_items")
+    limits = ([f"{limit:g} min"] if limit else []) + ([f"{items} mission items"] if items else [])
     rows = [("flight time", f"{total:.1f} min by the flight-time model ({how})"
-             + (f"; limit {limit:g} min per flight" if limit else ""))]
+             + (f"; limit {' and '.join(limits)} per flight" if limits else ""))]
     through = m.get("fly_through")
     if through and route.flies_through:
         rows.append(("flown through", f"{through['minutes']:.1f} min: {through['photos_in_passing']} of "
@@ -86,8 +88,9 @@ def _flight_rows(route) -> list[tuple[str, str]]:
         rows.append(("flights", f"{len(flights)}, each from the start point back to it; path {extra:.2f}x one "
                                 "single flight's"))
         for f in flights:
-            rows.append((f"  flight {f['flight']}", f"{f['minutes']:.1f} min, {f['shots']} shots, "
-                                                   f"{f['path_m']:,.0f} m, {f['limit_share_pct']:.0f} % of the limit"))
+            share = f['limit_share_pct']
+            rows.append((f"  flight {f['flight']}", f"{f['minutes']:.1f} min, {f['shots']} shots, {f['path_m']:,.0f} m"
+                                                   + ("" if share is None else f", {share:.0f} % of the time limit")))
     return rows
 
 

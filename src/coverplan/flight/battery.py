@@ -8,6 +8,10 @@ first shot and back from its last, the legs between its shots and its photos; ru
 than the limit are not allowed. The best split by total flight time wins; each flight's own
 order is then improved as a tour from the start (tour.py) and kept if that is faster. All legs
 are the safe legs the planner flies (Dijkstra over the lattice, shortcut where safe).
+
+A flight can also be bounded in mission items (``MissionItems``): PX4 keeps at most 500 on a
+flight controller, and a long flight flown through needs about two items a waypoint. The
+split then cuts where a flight would outgrow the autopilot, not only the battery.
 """
 
 from __future__ import annotations
@@ -21,9 +25,11 @@ from coverplan.equipment.flighttime import FlightModel, leg_seconds
 from coverplan.errors import PlanningError
 from coverplan.flight.pathing import shortcut
 from coverplan.flight.route import polyline_length
+from coverplan.flight.turning import MIN_TURN_DEG
 from coverplan.geometry.orientation import heading_pitch
 
 MAX_ATTEMPTS = 6
+RUN_ITEMS = 4  # take-off, return, the first photo's gimbal command and its photo
 
 
 def transit_headings(positions, is_shot, heading) -> np.ndarray:
@@ -41,6 +47,40 @@ def transit_headings(positions, is_shot, heading) -> np.ndarray:
             last = float(heading_pitch(np.array([step[0], step[1], 0.0]))[0])
         out[k] = last
     return out
+
+
+@dataclass(frozen=True)
+class MissionItems:
+    """At most ``limit`` mission items per flight, counted as the QGroundControl plan and the
+    WPL file write a flight (io/qgc.py): take-off and return, one waypoint command per waypoint
+    after the start, turn points between photos included (flight/turning.py), a speed change
+    before each when the route is flown ``through``, one photo command per photo and a gimbal
+    command where the pitch changes (the first photo's always). Each term is counted where it
+    may occur, so the count is an upper bound of what the writer writes."""
+
+    limit: int
+    through: bool = True
+
+    @property
+    def per_waypoint(self) -> int:
+        return 2 if self.through else 1
+
+    def bound(self, waypoints, stops: Stops) -> int:
+        """The most items one flight ([(position, special or -1), ...]) can come to."""
+        special = np.array([s for _, s in waypoints])
+        rows = np.flatnonzero(special > 0)
+        shots = special[rows]
+        return (2 + self.per_waypoint * (len(special) - 1) + len(shots) + (1 if len(shots) else 0)
+                + int(self.step_items(stops, shots[:-1], shots[1:], np.diff(rows) == 1).sum()))
+
+    def step_items(self, stops: Stops, a, b, direct) -> np.ndarray:
+        """Items a step from photo ``a`` to photo ``b`` (special indices) may add beyond its
+        waypoints: two turn points where the legs join them directly and the camera turns, a
+        gimbal command where the pitch changes."""
+        turn = np.abs((stops.heading[b] - stops.heading[a] + 180.0) % 360.0 - 180.0)
+        tilt = np.abs(stops.pitch[b] - stops.pitch[a])
+        turning = np.asarray(direct, bool) & ((turn >= MIN_TURN_DEG) | (tilt >= MIN_TURN_DEG)) & self.through
+        return 2 * self.per_waypoint * turning + (stops.pitch[b] != stops.pitch[a])
 
 
 @dataclass
@@ -118,12 +158,18 @@ def _start_legs(fg, n_special: int, clearance, radius: float, floor=None) -> lis
     return out
 
 
-def _best_split(sequence, start_s, between_s, photo_s, ground_s, limit_s):
+def _best_split(sequence, start_s, between_s, photo_s, ground_s, limit_s, items=None):
     """Cut ``sequence`` (shot ids) into runs of at most ``limit_s`` minimising the total time.
-    ``between_s[k]``: time from sequence[k] to sequence[k+1]. Returns (total, cuts) or (inf, None)."""
+    ``between_s[k]``: time from sequence[k] to sequence[k+1]. ``items``: None, or (items from
+    the start to each special, items of each step, most items a run may have). Returns
+    (total, cuts) or (inf, None)."""
     n = len(sequence)
     first = start_s[sequence]  # start -> shot, and back (legs are flown both ways)
     inner = np.concatenate([[0.0], np.cumsum(between_s)])  # inner[j] - inner[i]: legs i..j
+    if items is not None:
+        start_items, step_items, max_items = items
+        reach = start_items[sequence]
+        inner_items = np.concatenate([[0], np.cumsum(step_items)])
     best = np.full(n + 1, np.inf)
     best[0] = 0.0
     came = np.full(n + 1, -1)
@@ -132,7 +178,10 @@ def _best_split(sequence, start_s, between_s, photo_s, ground_s, limit_s):
             continue
         j = np.arange(i, n)
         cost = ground_s + first[i] + (inner[j] - inner[i]) + first[j] + photo_s * (j - i + 1)
-        better = (cost <= limit_s) & (best[i] + cost < best[j + 1])
+        fits = cost <= limit_s
+        if items is not None:
+            fits &= RUN_ITEMS + reach[i] + reach[j] + (inner_items[j] - inner_items[i]) <= max_items
+        better = fits & (best[i] + cost < best[j + 1])
         best[j[better] + 1] = best[i] + cost[better]
         came[j[better] + 1] = i
     if not np.isfinite(best[n]):
@@ -145,11 +194,12 @@ def _best_split(sequence, start_s, between_s, photo_s, ground_s, limit_s):
 
 
 def split_flights(fg, order, tour, fly, model: FlightModel, stops: Stops, max_seconds: float,
-                  clearance, radius: float, floor=None) -> list[list]:
+                  clearance, radius: float, floor=None, items: MissionItems | None = None) -> list[list]:
     """Flights (each a flown waypoint list from the start back to it) covering every shot of
-    the tour ``order`` once, each within ``max_seconds`` by ``model``. ``tour(nodes)`` orders
-    a flight's nodes (the start first) as the planner orders the whole tour; a flight keeps
-    that order where it is quicker than the cut."""
+    the tour ``order`` once, each within ``max_seconds`` by ``model`` (``inf``: no time limit)
+    and, given ``items``, within its mission items. ``tour(nodes)`` orders a flight's nodes
+    (the start first) as the planner orders the whole tour; a flight keeps that order where it
+    is quicker than the cut."""
     order = np.asarray(order)
     n_special = len(order)
     single = fly(order)
@@ -170,27 +220,48 @@ def split_flights(fg, order, tour, fly, model: FlightModel, stops: Stops, max_se
         raise PlanningError(f"a flight of {max_seconds / 60:.1f} min cannot reach {int((alone > max_seconds).sum())} "
                             f"of the shots and return: the farthest alone takes {alone.max() / 60:.1f} min; raise "
                             "--max-flight-min")
-    limit = max_seconds
+    if items is not None:
+        start_items = np.zeros(n_special, dtype=np.int64)
+        start_items[1:] = [items.per_waypoint * (len(pts) - 1) for pts in start_legs]
+        step_items = (items.per_waypoint * np.array([len(pts) - 1 for pts in legs[1:-1]], dtype=np.int64) + 1
+                      + items.step_items(stops, shots[:-1], shots[1:], [len(pts) == 2 for pts in legs[1:-1]]))
+        most = RUN_ITEMS + 2 * int(start_items.max())
+        if most > items.limit:
+            raise PlanningError(f"a flight of at most {items.limit} mission items cannot reach every shot and return: "
+                                f"the farthest alone takes {most}; raise --max-mission-items")
+    limit, item_limit = max_seconds, None if items is None else items.limit
     for _attempt in range(MAX_ATTEMPTS):
         candidates = []
-        for seq, btw in ((shots, between), (shots[::-1], between[::-1])):
-            total, cuts = _best_split(seq, start_s, btw, photo_s, ground_s, limit)
+        for seq, btw, steps in ((shots, between, None if items is None else step_items),
+                                (shots[::-1], between[::-1], None if items is None else step_items[::-1])):
+            budget = None if items is None else (start_items, steps, item_limit)
+            total, cuts = _best_split(seq, start_s, btw, photo_s, ground_s, limit, budget)
             if cuts is not None:
                 candidates.append((total, [seq[a:b] for a, b in cuts]))
         if not candidates:
             break
         runs = min(candidates, key=lambda c: c[0])[1]
-        flights, worst = [], 0.0
+        flights, worst, worst_items = [], 0.0, 0.0
         for run in runs:
             sub = np.concatenate([[0], run])
-            as_cut = fly(sub)
-            reordered = fly(sub[tour(sub)])
-            times = [waypoint_times(model, w, stops)["total_s"] for w in (as_cut, reordered)]
+            options = [fly(sub), fly(sub[tour(sub)])]  # as cut, reordered
+            times = np.array([waypoint_times(model, w, stops)["total_s"] for w in options])
+            if items is not None:  # a reordered flight may come to more items than its cut
+                counts = np.array([items.bound(w, stops) for w in options])
+                times[counts > items.limit] = np.inf
+                if not np.isfinite(times).any():
+                    worst_items = max(worst_items, counts.min() / items.limit)
+                    times = np.array([waypoint_times(model, w, stops)["total_s"] for w in options])
             pick = int(np.argmin(times))
-            flights.append((as_cut, reordered)[pick])
+            flights.append(options[pick])
             worst = max(worst, times[pick] / max_seconds)
-        if worst <= 1.0:
+        if worst <= 1.0 and worst_items <= 1.0:
             return flights
-        limit = limit / worst * 0.995  # the estimates were short by this much: split tighter
-    raise PlanningError(f"could not split the tour into flights of {max_seconds / 60:.1f} min; "
-                        "raise --max-flight-min")
+        if worst > 1.0:
+            limit = limit / worst * 0.995  # the estimates were short by this much: split tighter
+        if worst_items > 1.0:
+            item_limit = int(item_limit / worst_items) - 1
+    what = [] if not np.isfinite(max_seconds) else [f"flights of {max_seconds / 60:.1f} min"]
+    what += [] if items is None else [f"flights of at most {items.limit} mission items"]
+    raise PlanningError(f"could not split the tour into {' and '.join(what)}; raise "
+                        + ("--max-flight-min" if items is None else "--max-flight-min or --max-mission-items"))

@@ -146,8 +146,9 @@ def export_route(route, stem, formats, **options) -> list[Path]:
             if items > qgc.PX4_MISSION_ITEMS:
                 which = f"flight {k} has" if len(flights) > 1 else "the flight has"
                 raise ParameterError(f"{which} {items} mission items, but PX4 keeps at most {qgc.PX4_MISSION_ITEMS} "
-                                     "on a flight controller; plan shorter flights (--max-flight-min) or export "
-                                     "another format (--firmware ardupilot if that is the autopilot)")
+                                     f"on a flight controller; plan flights that fit (--max-mission-items "
+                                     f"{qgc.PX4_MISSION_ITEMS}, or --max-flight-min) or export another format "
+                                     "(--firmware ardupilot if that is the autopilot)")
     written = []
     for name in formats:
         func, suffix = writer(name)

@@ -56,6 +56,9 @@ class PlanSettings:
         Weight of the security + optimal placement cost in the flight graph.
     max_flight_min : float or None
         Longest battery flight in minutes; None: the drone's usable minutes, or no split.
+    max_mission_items : int or None
+        Most mission items a flight may hold as the QGroundControl plan and the WPL file write
+        it (PX4 keeps 500 on a flight controller); None: no limit. Flights are split to fit.
     lattice_spacing_m : float or None
         Flight-graph lattice spacing; None: chosen to keep the lattice within its node cap.
     lp_time_limit : float
@@ -116,6 +119,7 @@ class PlanSettings:
     gimbal_pitch_range_deg: tuple | None = None
     cost_weight: float = 1.0
     max_flight_min: float | None = None
+    max_mission_items: int | None = None
     lattice_spacing_m: float | None = None
     lp_time_limit: float = 20.0
     max_memory: float | None = None
@@ -163,6 +167,11 @@ class PlanSettings:
             put("spacing", check_positive("spacing", self.spacing))
         if self.max_flight_min is not None:
             put("max_flight_min", check_positive("max flight minutes", self.max_flight_min))
+        if self.max_mission_items is not None:
+            items = self.max_mission_items
+            if isinstance(items, bool) or not (np.isfinite(items) and int(items) == items and items >= 8):
+                raise ParameterError(f"max mission items must be a whole number >= 8, got {items!r}")
+            put("max_mission_items", int(items))
         if self.surface_classes is not None:
             put("surface_classes", tuple(self.surface_classes))
         if self.max_altitude is not None:

@@ -20,6 +20,7 @@ from coverplan.equipment.flighttime import FlightModel
 from coverplan.equipment.margin import NO_MARGIN, PoseMargin, margin_for, tightened
 from coverplan.errors import ParameterError, PlanningError
 from coverplan.flight.battery import (
+    MissionItems,
     Stops,
     flight_table,
     split_flights,
@@ -466,14 +467,17 @@ def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progr
         flights = [fly_order(order)]
     single_s = waypoint_times(setup.flight_model, flights[0], stops)["total_s"]
     single_path = polyline_length([p for p, _ in flights[0]])
-    if setup.max_flight_min is not None and single_s > 60.0 * setup.max_flight_min:
+    max_s = np.inf if setup.max_flight_min is None else 60.0 * setup.max_flight_min
+    items = None if settings.max_mission_items is None else \
+        MissionItems(settings.max_mission_items, through=settings.fly == "through")
+    if single_s > max_s or (items is not None and items.bound(flights[0], stops) > items.limit):
         with progress.stage("battery flights"):
             def tour(nodes):
                 return plan_tour(closure[np.ix_(nodes, nodes)], specials[nodes], reversal_m, reaim[np.ix_(nodes, nodes)])
 
-            flights = split_flights(fg, order, tour, fly_order, setup.flight_model, stops,
-                                    60.0 * setup.max_flight_min, scene.clearance_model(limits.security),
-                                    limits.security + extra, floor=limits.segments_allowed)
+            flights = split_flights(fg, order, tour, fly_order, setup.flight_model, stops, max_s,
+                                    scene.clearance_model(limits.security), limits.security + extra,
+                                    floor=limits.segments_allowed, items=items)
     return Flight(flights, shots, chosen, check, uncovered, h, single_s, single_path, reversal_m, reaim_m)
 
 
@@ -508,6 +512,8 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
                      "house and the chapel; run coverplan simulate --conditions field before flying it")
     if setup.max_flight_min is not None:
         params["max_flight_min"] = setup.max_flight_min
+    if settings.max_mission_items is not None:
+        params["max_mission_items"] = settings.max_mission_items
     if settings.surface_classes:
         params["surface_classes"] = list(settings.surface_classes)
     params["rule"] = settings.rule
