@@ -162,12 +162,6 @@ DRONES: dict[str, DroneProfile] = {
         sources=("DJI Phantom 4 Pro V2.0 specifications", "Litchi mission hub documentation")),
 }
 
-# Waypoints one mission file takes, where the exporter cannot split: DJI WPML numbers them
-# 0..65535 (wpml:index, DJI WPML reference). Litchi's 99 (DJI Mobile SDK waypoint missions) is
-# met by its writer, which splits a flight into consecutive missions (io/litchi.py).
-WAYPOINT_LIMITS = {"wpml": 65536}
-
-
 def get_drone(name: str) -> DroneProfile:
     """The profile called ``name``; the error lists the profiles that exist."""
     try:

@@ -9,7 +9,6 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from coverplan.equipment.drones import WAYPOINT_LIMITS
 from coverplan.errors import InputFileError, ParameterError
 from coverplan.io import (  # noqa: F401
     citygml,
@@ -28,6 +27,7 @@ from coverplan.io.registry import (
     CITY_READERS,
     MISSION_READERS,
     READERS,
+    WRITER_CHECKS,
     WRITERS,
     MeshSource,
     Writer,
@@ -130,25 +130,15 @@ def parse_formats(text: str | None) -> list[str]:
 def export_route(route, stem, formats, **options) -> list[Path]:
     """Write ``route`` in each format as STEM + the format's suffix; a route of several battery
     flights as one file per flight, STEM.f1 + suffix, STEM.f2 + suffix, ... Nothing is written
-    when a flight has more waypoints than a format's app takes, or more mission items than
-    PX4 keeps (a QGroundControl plan for PX4)."""
+    when a flight does not fit a format's app or autopilot (its writer's check: more waypoints
+    than DJI WPML numbers, more mission items than PX4 keeps)."""
     flights = [route] if route.n_flights <= 1 else [route.flight_route(k) for k in range(1, route.n_flights + 1)]
     for name in formats:
-        limit = WAYPOINT_LIMITS.get(name)
+        check = WRITER_CHECKS.get(name)
         for k, flight in enumerate(flights, start=1):
-            if limit is not None and len(flight) > limit:
-                which = f"flight {k} has" if len(flights) > 1 else "the flight has"
-                raise ParameterError(f"{which} {len(flight)} waypoints, but {name} missions take at most {limit}; "
-                                     "plan shorter flights (--max-flight-min) or export another format")
-    if "qgc" in formats and options.get("firmware", "px4") == "px4":
-        for k, flight in enumerate(flights, start=1):
-            items = len(qgc.mission_items(flight, options.get("speed", 5.0)))
-            if items > qgc.PX4_MISSION_ITEMS:
-                which = f"flight {k} has" if len(flights) > 1 else "the flight has"
-                raise ParameterError(f"{which} {items} mission items, but PX4 keeps at most {qgc.PX4_MISSION_ITEMS} "
-                                     f"on a flight controller; plan flights that fit (--max-mission-items "
-                                     f"{qgc.PX4_MISSION_ITEMS}, or --max-flight-min) or export another format "
-                                     "(--firmware ardupilot if that is the autopilot)")
+            why = None if check is None else check(flight, **options)
+            if why:
+                raise ParameterError(f"{f'flight {k} has' if len(flights) > 1 else 'the flight has'} {why}")
     written = []
     for name in formats:
         func, suffix = writer(name)

@@ -79,7 +79,19 @@ def _json_param(v):
     return None if math.isnan(v) else v
 
 
-@register_writer("qgc", ".plan")
+def px4_fit(route, firmware: str = "px4", speed: float = 5.0, **_ignored) -> str | None:
+    """Why a flight's plan does not fit PX4's mission store (None: it fits, or not for PX4)."""
+    if firmware != "px4":
+        return None
+    items = len(mission_items(route, speed))
+    if items <= PX4_MISSION_ITEMS:
+        return None
+    return (f"{items} mission items, but PX4 keeps at most {PX4_MISSION_ITEMS} on a flight controller; plan flights "
+            f"that fit (--max-mission-items {PX4_MISSION_ITEMS}, or --max-flight-min) or export another format "
+            "(--firmware ardupilot if that is the autopilot)")
+
+
+@register_writer("qgc", ".plan", check=px4_fit)
 def write_plan(route, path, firmware: str = "px4", speed: float = 5.0, **_ignored) -> list[Path]:
     f = geo_flight(route)
     items = []

@@ -39,6 +39,8 @@ MISSION_READERS: dict[str, Callable] = {}
 CITY_READERS: dict[str, Callable] = {}
 ZONE_READERS: dict[str, Callable] = {}
 WRITERS: dict[str, tuple[Writer, str]] = {}
+WriterCheck = Callable[..., str | None]
+WRITER_CHECKS: dict[str, WriterCheck] = {}
 
 
 def _by_extension(table: dict, extensions) -> Callable:
@@ -54,9 +56,14 @@ def register_reader(*extensions: str):
     return _by_extension(READERS, extensions)
 
 
-def register_writer(name: str, suffix: str):
+def register_writer(name: str, suffix: str, check: WriterCheck | None = None):
+    """Enter a writer of format ``name`` (files end in ``suffix``). ``check(flight, **options)``
+    says why one flight does not fit the app or autopilot the format is for (None: it fits);
+    ``export_route`` asks it of every flight before it writes any file."""
     def wrap(func: Writer) -> Writer:
         WRITERS[name] = (func, suffix)
+        if check is not None:
+            WRITER_CHECKS[name] = check
         return func
     return wrap
 

@@ -42,6 +42,9 @@ from coverplan.io.registry import register_mission_reader, register_writer
 KML = "http://www.opengis.net/kml/2.2"
 WPML = "http://www.dji.com/wpmz/1.0.2"
 HEIGHT_MODES = ("relative", "egm96")
+# A flight is one WPML file: DJI numbers its waypoints 0..65535 (wpml:index). Litchi's 99 (DJI
+# Mobile SDK missions) is met by its own writer, which splits a flight (io/litchi.py).
+WPML_WAYPOINTS = 65536
 
 
 def _w(tag: str) -> str:
@@ -277,7 +280,16 @@ def wpml_files(route, drone=None, speed: float | None = None, heights: str = "re
             "wpmz/waylines.wpml": _document(route, f, profile, hs, (mode_t, mode_x), speed, executed=True)}
 
 
-@register_writer("wpml", ".kmz")
+def waypoint_fit(route, **_ignored) -> str | None:
+    """Why a flight does not fit one WPML file (None: it fits): DJI numbers its waypoints
+    0..65535 (wpml:index)."""
+    if len(route) <= WPML_WAYPOINTS:
+        return None
+    return (f"{len(route)} waypoints, but wpml missions take at most {WPML_WAYPOINTS}; plan shorter flights "
+            "(--max-flight-min) or export another format")
+
+
+@register_writer("wpml", ".kmz", check=waypoint_fit)
 def write_wpml(route, path, drone=None, speed: float | None = None, wpml_heights: str = "relative",
                **_ignored) -> list[Path]:
     files = wpml_files(route, drone, speed, wpml_heights)
