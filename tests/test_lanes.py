@@ -7,7 +7,7 @@ import pytest
 
 from coverplan import evaluate, get_camera, load_scene, plan
 from coverplan.cli import main
-from coverplan.flight.lanes import route_step_shape, step_shape
+from coverplan.flight.lanes import route_step_shape, smooth_ceiling, step_shape
 from coverplan.flight.tour import DEFAULT_REAIM_STEPS, DEFAULT_REVERSAL_STEPS
 from coverplan.shots.candidates import facade_rings
 from coverplan.shots.reachability import scene_limits
@@ -42,6 +42,23 @@ def box_rings(view_tilts: str):
     limits = scene_limits(scene, security=SECURITY, d_opt=12.0, max_incidence_deg=70.0, min_altitude=SECURITY,
                           pitch_range_deg=(-90.0, 30.0), vfov_deg=camera.vfov_deg)
     return facade_rings(scene, camera, limits, 8.0, view_tilts=view_tilts), camera
+
+
+def test_the_smooth_ceiling_bounds_every_order():
+    """Headings 0, 8, 16 chain into one group (each step 8 deg), 90 and 95 into another, 200
+    stands alone: at most 6 - 3 = 3 of the 5 steps can be smooth, and the best order has 3."""
+    heading = np.array([90.0, 0.0, 200.0, 16.0, 95.0, 8.0])
+    pitch = np.zeros(6)
+    assert smooth_ceiling(heading, pitch) == pytest.approx(60.0)
+    best = [1, 5, 3, 0, 4, 2]
+    assert step_shape(np.arange(18.0).reshape(6, 3), heading[best], pitch[best])[0] == pytest.approx(60.0)
+    rng = np.random.default_rng(3)
+    for _ in range(20):  # no order beats the ceiling
+        order = rng.permutation(6)
+        assert step_shape(np.arange(18.0).reshape(6, 3), heading[order], pitch[order])[0] <= 60.0 + 1e-9
+    # The 8 deg photo pitched 6 deg lower breaks the chain: 0, 8 and 16 fall apart, five groups.
+    assert smooth_ceiling(heading, np.array([0.0, 0.0, 0.0, 0.0, 0.0, -6.0])) == pytest.approx(20.0)
+    assert smooth_ceiling([10.0], [0.0]) == 100.0
 
 
 def test_square_ring_candidates_face_their_wall_square_on():

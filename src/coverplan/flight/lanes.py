@@ -12,6 +12,8 @@ scribble turns the camera and turns back at every photo. Two figures tell them a
 from __future__ import annotations
 
 import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
 
 SMOOTH_HEADING_DEG = 10.0
 SMOOTH_PITCH_DEG = 5.0
@@ -58,3 +60,29 @@ def route_step_shape(route) -> tuple[float, float]:
     """``step_shape`` of a Route's photos in flight order (waypoints without a photo skipped)."""
     rows = route.shots
     return step_shape(route.positions[rows], route.heading_deg[rows], route.pitch_deg[rows])
+
+
+def smooth_ceiling(heading_deg, pitch_deg) -> float:
+    """The most smooth steps any order of these photos could have, in percent: an upper bound.
+
+    Photos join into groups through smooth steps (a chain of them may drift past 10 deg); an
+    order steps from one group to another at least once per group after the first, and that
+    step is not smooth. So with n photos in c groups at most n - c of the n - 1 steps are.
+
+    Parameters
+    ----------
+    heading_deg, pitch_deg : (n,) float
+        The photos' headings and gimbal pitches, in any order.
+
+    Returns
+    -------
+    float
+        100 (n - c) / (n - 1); 100 for fewer than two photos.
+    """
+    heading, pitch = np.asarray(heading_deg, float), np.asarray(pitch_deg, float)
+    n = len(heading)
+    if n < 2:
+        return 100.0
+    joined = smooth_step(heading[:, None], pitch[:, None], heading[None], pitch[None])
+    groups, _ = connected_components(sp.csr_matrix(joined), directed=False)
+    return 100.0 * (n - groups) / (n - 1)
