@@ -235,8 +235,6 @@ def cmd_plan(args) -> int:
     # --start is in the input models' coordinates, like the meshes: move it with them.
     start = None if args.start is None else scene.to_local(args.start)
     options = _plan_options(args)
-    if options["max_mission_items"] is None and "qgc" in formats and args.firmware == "px4":
-        options["max_mission_items"] = PX4_MISSION_ITEMS  # a longer flight would be refused at export
     if args.existing:
         with progress.stage("existing photos"):
             options["existing"] = read_existing(args.existing, scene, camera, args.gsd, args.security, progress)
@@ -259,12 +257,15 @@ def cmd_plan(args) -> int:
 
 def _plan_options(args) -> dict:
     """planner.plan's keyword arguments from the planning flags ``plan`` and ``batch`` share."""
+    items = args.max_mission_items
+    if items is None and "qgc" in parse_formats(args.export) and args.firmware == "px4":
+        items = PX4_MISSION_ITEMS  # a longer flight would be refused at export
     return dict(gsd=args.gsd, security=args.security, min_views=args.min_views,
                 min_triangulation_deg=args.min_triangulation_deg, rule=args.rule, match=_match_rule(args),
                 max_incidence_deg=args.max_incidence_deg, min_altitude=args.min_altitude, max_altitude=args.max_altitude,
                 spacing=args.spacing,
                 gimbal_pitch_range_deg=_gimbal(args), drone=_drone(args), flight_model=_flight_model(args),
-                max_flight_min=args.max_flight_min, max_mission_items=args.max_mission_items,
+                max_flight_min=args.max_flight_min, max_mission_items=items,
                 lp_time_limit=args.lp_time_limit, surface_classes=args.only, pose_margin=args.margin,
                 keep_out=tuple(args.keep_out), keep_in=tuple(args.keep_in), zone_margin=args.zone_margin,
                 fly=args.fly, view_tilts=args.view_tilts, reversal_steps=args.reversal_cost,
