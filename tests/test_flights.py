@@ -66,6 +66,17 @@ def ring():
     return scene, drone, single, split
 
 
+def assert_the_same_photos_safely(split, single, scene):
+    """Exactly the one-flight plan's photos, each once, and a path that keeps the security
+    distance by an independent distance check."""
+    mine = np.round(np.column_stack([split.positions, split.heading_deg])[split.shot], 6)
+    theirs = np.round(np.column_stack([single.positions, single.heading_deg])[single.shot], 6)
+    assert len(np.unique(mine, axis=0)) == len(mine)
+    np.testing.assert_array_equal(np.unique(mine, axis=0), np.unique(theirs, axis=0))
+    meshes = [p.mesh for p in scene.parts]
+    assert polyline_min_distance(split.positions, meshes, step=0.5) >= split.security - 1e-6
+
+
 def test_one_flight_when_it_fits_the_battery(ring):
     _scene, drone, single, _split = ring
     assert single.n_flights == 1 and single.params["max_flight_min"] == drone.usable_flight_min
@@ -88,14 +99,7 @@ def test_battery_flights_fit_return_home_and_share_the_shots(ring):
         np.testing.assert_allclose(p[0], start)
         np.testing.assert_allclose(p[-1], start)
         assert split.shot[rows].any()
-    # Exactly the one-flight plan's photos, each once.
-    mine = np.round(np.column_stack([split.positions, split.heading_deg])[split.shot], 6)
-    theirs = np.round(np.column_stack([single.positions, single.heading_deg])[single.shot], 6)
-    assert len(np.unique(mine, axis=0)) == len(mine)
-    np.testing.assert_array_equal(np.unique(mine, axis=0), np.unique(theirs, axis=0))
-    # Safe end to end, by an independent distance check and by the evaluator.
-    meshes = [p.mesh for p in scene.parts]
-    assert polyline_min_distance(split.positions, meshes, step=0.5) >= split.security - 1e-6
+    assert_the_same_photos_safely(split, single, scene)
     assert evaluate(split, scene).safe
     assert split.path_length > single.path_length  # each extra flight flies out and back
 
@@ -118,7 +122,8 @@ def test_flights_split_to_fit_a_mission_item_limit(ring, tmp_path):
     flights come apart so that each exported .plan holds at most that many, read back from the
     files; together they take the one-flight plan's photos, each once, safely."""
     scene, drone, single, _split = ring
-    single_items = len(json.loads(export_route(single, tmp_path / "one", ["qgc"], firmware="ardupilot")[0].read_text())["mission"]["items"])
+    one = export_route(single, tmp_path / "one", ["qgc"], firmware="ardupilot")[0]
+    single_items = len(json.loads(one.read_text())["mission"]["items"])
     limit = single_items // 3
     split = plan(scene, drone.camera, gsd=0.004, security=3.0, drone=drone, max_flight_min=1e6,
                  max_mission_items=limit)
@@ -127,12 +132,7 @@ def test_flights_split_to_fit_a_mission_item_limit(ring, tmp_path):
     files = export_route(split, tmp_path / "split", ["qgc"])
     counts = [len(json.loads(f.read_text())["mission"]["items"]) for f in files]
     assert len(counts) == split.n_flights and max(counts) <= limit
-    mine = np.round(np.column_stack([split.positions, split.heading_deg])[split.shot], 6)
-    theirs = np.round(np.column_stack([single.positions, single.heading_deg])[single.shot], 6)
-    assert len(np.unique(mine, axis=0)) == len(mine)
-    np.testing.assert_array_equal(np.unique(mine, axis=0), np.unique(theirs, axis=0))
-    meshes = [p.mesh for p in scene.parts]
-    assert polyline_min_distance(split.positions, meshes, step=0.5) >= split.security - 1e-6
+    assert_the_same_photos_safely(split, single, scene)
 
 
 def test_plan_exporting_for_px4_keeps_each_flight_within_500_items(tmp_path, capsys):

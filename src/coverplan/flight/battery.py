@@ -25,7 +25,7 @@ from coverplan.equipment.flighttime import FlightModel, leg_seconds
 from coverplan.errors import PlanningError
 from coverplan.flight.pathing import shortcut
 from coverplan.flight.route import polyline_length
-from coverplan.flight.turning import MIN_TURN_DEG
+from coverplan.flight.turning import camera_turns
 from coverplan.geometry.orientation import heading_pitch
 
 MAX_ATTEMPTS = 6
@@ -66,21 +66,21 @@ class MissionItems:
         return 2 if self.through else 1
 
     def bound(self, waypoints, stops: Stops) -> int:
-        """The most items one flight ([(position, special or -1), ...]) can come to."""
+        """The most items one flight ([(position, special or -1), ...], a photo or more) can come to."""
         special = np.array([s for _, s in waypoints])
         rows = np.flatnonzero(special > 0)
         shots = special[rows]
-        return (2 + self.per_waypoint * (len(special) - 1) + len(shots) + (1 if len(shots) else 0)
+        return (RUN_ITEMS + self.per_waypoint * (len(special) - 1)
                 + int(self.step_items(stops, shots[:-1], shots[1:], np.diff(rows) == 1).sum()))
 
     def step_items(self, stops: Stops, a, b, direct) -> np.ndarray:
         """Items a step from photo ``a`` to photo ``b`` (special indices) may add beyond its
-        waypoints: two turn points where the legs join them directly and the camera turns, a
-        gimbal command where the pitch changes."""
-        turn = np.abs((stops.heading[b] - stops.heading[a] + 180.0) % 360.0 - 180.0)
-        tilt = np.abs(stops.pitch[b] - stops.pitch[a])
-        turning = np.asarray(direct, bool) & ((turn >= MIN_TURN_DEG) | (tilt >= MIN_TURN_DEG)) & self.through
-        return 2 * self.per_waypoint * turning + (stops.pitch[b] != stops.pitch[a])
+        waypoints: ``b``'s photo command, two turn points where the legs join the photos
+        directly and the camera turns (``add_turn_points``), a gimbal command where the pitch
+        changes."""
+        turning = np.asarray(direct, bool) & self.through & camera_turns(stops.heading[a], stops.pitch[a],
+                                                                         stops.heading[b], stops.pitch[b])
+        return 1 + 2 * self.per_waypoint * turning + (stops.pitch[b] != stops.pitch[a])
 
 
 @dataclass
@@ -223,7 +223,7 @@ def split_flights(fg, order, tour, fly, model: FlightModel, stops: Stops, max_se
     if items is not None:
         start_items = np.zeros(n_special, dtype=np.int64)
         start_items[1:] = [items.per_waypoint * (len(pts) - 1) for pts in start_legs]
-        step_items = (items.per_waypoint * np.array([len(pts) - 1 for pts in legs[1:-1]], dtype=np.int64) + 1
+        step_items = (items.per_waypoint * np.array([len(pts) - 1 for pts in legs[1:-1]], dtype=np.int64)
                       + items.step_items(stops, shots[:-1], shots[1:], [len(pts) == 2 for pts in legs[1:-1]]))
         most = RUN_ITEMS + 2 * int(start_items.max())
         if most > items.limit:
@@ -246,13 +246,14 @@ def split_flights(fg, order, tour, fly, model: FlightModel, stops: Stops, max_se
             sub = np.concatenate([[0], run])
             options = [fly(sub), fly(sub[tour(sub)])]  # as cut, reordered
             times = np.array([waypoint_times(model, w, stops)["total_s"] for w in options])
+            allowed = times
             if items is not None:  # a reordered flight may come to more items than its cut
                 counts = np.array([items.bound(w, stops) for w in options])
-                times[counts > items.limit] = np.inf
-                if not np.isfinite(times).any():
+                if (counts <= items.limit).any():
+                    allowed = np.where(counts <= items.limit, times, np.inf)
+                else:
                     worst_items = max(worst_items, counts.min() / items.limit)
-                    times = np.array([waypoint_times(model, w, stops)["total_s"] for w in options])
-            pick = int(np.argmin(times))
+            pick = int(np.argmin(allowed))
             flights.append(options[pick])
             worst = max(worst, times[pick] / max_seconds)
         if worst <= 1.0 and worst_items <= 1.0:

@@ -20,6 +20,14 @@ MIN_TURN_DEG = 1.0  # a smaller heading or pitch change between photos blurs not
 MIN_LEG_M = 1.0  # shorter legs keep their even turn
 
 
+def camera_turns(heading_a, pitch_a, heading_b, pitch_b) -> np.ndarray:
+    """Whether the camera turns enough between orientation a and b for a leg joining two
+    photos to get turn points (heading or pitch at least MIN_TURN_DEG apart); arrays broadcast."""
+    turn = np.abs((np.asarray(heading_b, float) - np.asarray(heading_a, float) + 180.0) % 360.0 - 180.0)
+    tilt = np.abs(np.asarray(pitch_b, float) - np.asarray(pitch_a, float))
+    return (turn >= MIN_TURN_DEG) | (tilt >= MIN_TURN_DEG)
+
+
 def add_turn_points(route: Route, share: float) -> Route:
     """``route`` with turn points on each leg between two photos whose orientation differs.
 
@@ -40,12 +48,10 @@ def add_turn_points(route: Route, share: float) -> Route:
     if share >= 1.0 or n < 2:
         return route
     p, h, g = route.positions, route.heading_deg, route.pitch_deg
-    turn = np.abs((np.diff(h) + 180.0) % 360.0 - 180.0)
-    tilt = np.abs(np.diff(g))
     length = np.linalg.norm(np.diff(p, axis=0), axis=1)
     same_flight = route.flight[:-1] == route.flight[1:]
     legs = np.flatnonzero(route.shot[:-1] & route.shot[1:] & same_flight & (length >= MIN_LEG_M)
-                          & ((turn >= MIN_TURN_DEG) | (tilt >= MIN_TURN_DEG)))
+                          & camera_turns(h[:-1], g[:-1], h[1:], g[1:]))
     if not len(legs):
         return route
     edge = 0.5 * (1.0 - share)
