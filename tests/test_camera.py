@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from coverplan import PRESETS, Camera, ParameterError, get_camera
-from coverplan.geometry.orientation import angle_between_deg, camera_axes, heading_pitch, view_direction
+from coverplan.geometry.orientation import angle_between_deg, camera_axes, heading_change_deg, heading_pitch, view_direction
 
 
 def test_phantom4pro_derived_values():
@@ -58,3 +58,17 @@ def test_heading_and_pitch_conventions():
     np.testing.assert_allclose(np.einsum("ij,ij->i", right, forward), 0, atol=1e-12)
     np.testing.assert_allclose(np.linalg.norm(up, axis=1), 1, atol=1e-12)
     assert (up[:, 2] >= -1e-12).all()  # image up never points below the horizon for |pitch| < 90
+
+
+def test_heading_change_is_the_short_way_across_north():
+    np.testing.assert_allclose(heading_change_deg([350, 10, 0, 90, 720], [10, 350, 180, 45, 1]), [20, -20, -180, -45, 1])
+    rng = np.random.default_rng(2)
+    a, b = rng.uniform(-720, 720, 500), rng.uniform(-720, 720, 500)
+    turn = heading_change_deg(a, b)
+    assert ((turn >= -180) & (turn < 180)).all()
+    # turning a by the change lands on b's direction: the same unit vector
+    level = np.zeros_like(a)
+    np.testing.assert_allclose(view_direction(a + turn, level), view_direction(b, level), atol=1e-9)
+    # never more than the angle between the two directions
+    np.testing.assert_allclose(np.abs(turn), angle_between_deg(view_direction(a, level), view_direction(b, level)),
+                               atol=1e-5)

@@ -20,6 +20,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from coverplan.errors import ParameterError
+from coverplan.geometry.orientation import heading_change_deg
 
 
 @dataclass(frozen=True)
@@ -68,7 +69,7 @@ class FlightModel:
     def rotation_seconds(self, heading_deg, pitch_deg) -> np.ndarray:
         """Per waypoint after the first: time to turn from the previous heading and pitch."""
         h = np.asarray(heading_deg, dtype=float)
-        turn = np.abs((np.diff(h) + 180.0) % 360.0 - 180.0)
+        turn = np.abs(heading_change_deg(h[:-1], h[1:]))
         tilt = np.abs(np.diff(np.asarray(pitch_deg, dtype=float)))
         return np.maximum(turn / self.yaw_rate_deg, tilt / self.gimbal_rate_deg)
 

@@ -15,6 +15,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from coverplan.geometry.orientation import heading_change_deg
+
 SMOOTH_HEADING_DEG = 10.0
 SMOOTH_PITCH_DEG = 5.0
 
@@ -22,7 +24,7 @@ SMOOTH_PITCH_DEG = 5.0
 def smooth_step(heading_a, pitch_a, heading_b, pitch_b) -> np.ndarray:
     """Whether a step from orientation a to b is smooth (heading within 10 deg across north,
     gimbal pitch within 5 deg); arrays broadcast."""
-    turn = np.abs((np.asarray(heading_b, float) - np.asarray(heading_a, float) + 180.0) % 360.0 - 180.0)
+    turn = np.abs(heading_change_deg(heading_a, heading_b))
     tilt = np.abs(np.asarray(pitch_b, float) - np.asarray(pitch_a, float))
     return (turn <= SMOOTH_HEADING_DEG) & (tilt <= SMOOTH_PITCH_DEG)
 

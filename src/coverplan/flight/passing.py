@@ -35,7 +35,7 @@ import numpy as np
 from coverplan.equipment.drones import SURVEY_SHUTTER_S
 from coverplan.errors import ParameterError
 from coverplan.flight.pathing import polyline_checks
-from coverplan.geometry.orientation import camera_axes
+from coverplan.geometry.orientation import camera_axes, heading_change_deg
 
 
 @dataclass(frozen=True)
@@ -220,7 +220,8 @@ def pass_plan(model, positions, shot, heading_deg, pitch_deg, nearest_m, *, pixe
     top = leg_top_speeds(model, p, heading_deg, pitch_deg, shot, photo_interval_s)
     top_before = np.concatenate([[0.0], top])
     top_after = np.concatenate([top, [0.0]])
-    turn = np.radians(np.abs((np.diff(np.asarray(heading_deg, dtype=float)) + 180.0) % 360.0 - 180.0)
+    h = np.asarray(heading_deg, dtype=float)
+    turn = np.radians(np.abs(heading_change_deg(h[:-1], h[1:]))
                       + np.abs(np.diff(np.asarray(pitch_deg, dtype=float))))
     with np.errstate(divide="ignore", invalid="ignore"):
         per_m = np.where(length > 0, turn / length, 0.0)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from coverplan.flight.route import Route
+from coverplan.geometry.orientation import heading_change_deg
 
 MIN_TURN_DEG = 1.0  # a smaller heading or pitch change between photos blurs nothing
 MIN_LEG_M = 1.0  # shorter legs keep their even turn
@@ -23,7 +24,7 @@ MIN_LEG_M = 1.0  # shorter legs keep their even turn
 def camera_turns(heading_a, pitch_a, heading_b, pitch_b) -> np.ndarray:
     """Whether the camera turns enough between orientation a and b for a leg joining two
     photos to get turn points (heading or pitch at least MIN_TURN_DEG apart); arrays broadcast."""
-    turn = np.abs((np.asarray(heading_b, float) - np.asarray(heading_a, float) + 180.0) % 360.0 - 180.0)
+    turn = np.abs(heading_change_deg(heading_a, heading_b))
     tilt = np.abs(np.asarray(pitch_b, float) - np.asarray(pitch_a, float))
     return (turn >= MIN_TURN_DEG) | (tilt >= MIN_TURN_DEG)
 

@@ -47,3 +47,9 @@ def angle_between_deg(a, b) -> np.ndarray:
     nb = np.linalg.norm(b, axis=-1)
     cos = np.einsum("...i,...i->...", a, b) / np.maximum(na * nb, 1e-300)
     return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0)))
+
+
+def heading_change_deg(heading_a, heading_b) -> np.ndarray:
+    """The turn from heading a to heading b in degrees, in [-180, 180) (positive clockwise),
+    the short way across north; arrays broadcast."""
+    return (np.asarray(heading_b, dtype=float) - np.asarray(heading_a, dtype=float) + 180.0) % 360.0 - 180.0

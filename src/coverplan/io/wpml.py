@@ -36,6 +36,7 @@ from coverplan.files import write_atomic_bytes
 from coverplan.flight.missions import TAKEOFF, MissionBuilder, mission_number
 from coverplan.flight.passing import leg_speeds
 from coverplan.geometry.geo import ellipsoidal_and_egm96
+from coverplan.geometry.orientation import heading_change_deg
 from coverplan.io.geoflight import geo_flight
 from coverplan.io.registry import register_mission_reader, register_writer
 
@@ -70,7 +71,7 @@ def _text(v) -> str:
 
 def signed_heading(deg) -> np.ndarray:
     """Degrees clockwise from north in [-180, 180), as WPML wants them."""
-    return (np.asarray(deg, dtype=float) + 180.0) % 360.0 - 180.0
+    return heading_change_deg(0.0, deg)
 
 
 def _drone_for(route, drone):
@@ -146,7 +147,7 @@ def _photo_step(photo: int, lens: str):
 def _actions(parent, group_id: int, index: int, heading: float, pitch: float, prev_heading: float, photo: int,
              lens: str) -> None:
     """At a stop: turn to the heading, the gimbal to the pitch, take the photo."""
-    turn = (heading - prev_heading + 180.0) % 360.0 - 180.0
+    turn = heading_change_deg(prev_heading, heading)
     steps = [("rotateYaw", [("aircraftHeading", round(float(heading), 2)),
                             ("aircraftPathMode", "clockwise" if turn >= 0 else "counterClockwise")]),
              ("gimbalRotate", [("gimbalHeadingYawBase", "north"), ("gimbalRotateMode", "absoluteAngle"),
