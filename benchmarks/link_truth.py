@@ -12,6 +12,7 @@ verified from its database, and scores each test on the evaluator's samples:
 - the pairs COLMAP verified with 300 or more inliers that it does not predict (links the plan
   could have counted on);
 - the photos left out of the largest model and the predicted links they hung on;
+- the same for ``likely``, a wider guess than any link test (``LIKELY``), scored the same way;
 - the groups of photos joined through triangles of links (``triangle_groups``), of COLMAP's
   verified pairs and of each test's links: the incremental mapper's models follow the first.
 
@@ -84,6 +85,38 @@ def triangle_groups(adjacency: np.ndarray) -> list[list[int]]:
     return sorted((sorted(g) for g in groups.values()), key=len, reverse=True)
 
 
+LIKELY = {"incidence_deg": 70.0, "pair_deg": 50.0, "overlap": 0.15, "range_d_opt": 2.0}
+
+
+def likely_links(route, scene, rule: dict = LIKELY) -> np.ndarray:
+    """(n, n) bool: the pairs COLMAP is likely to match, a wider guess than any link test:
+    the photos share ``overlap`` of the smaller one's samples (the evaluator's, in frame and
+    sight, within ``range_d_opt`` times d_opt) that both see within ``incidence_deg`` of their
+    normal and whose rays meet within ``pair_deg``."""
+    ev = evaluate(route, scene, rule="thesis")
+    cam, pt, rng = ev.pairs
+    positions = photo_poses(route)[0]
+    n = len(positions)
+    ray = positions[cam] - ev.samples.points[pt]
+    ray /= np.linalg.norm(ray, axis=1)[:, None]
+    square = np.einsum("ij,ij->i", ray, ev.samples.normals[pt]) >= np.cos(np.radians(rule["incidence_deg"]))
+    keep = square & (rng <= rule["range_d_opt"] * route.d_opt)
+    cam, pt, ray = cam[keep], pt[keep], ray[keep]
+    order = np.lexsort((cam, pt))
+    cam, pt, ray = cam[order], pt[order], ray[order]
+    count = np.bincount(pt, minlength=len(ev.samples))
+    later = (np.cumsum(count))[pt] - np.arange(len(pt)) - 1  # the sample's views after this one
+    a = np.repeat(np.arange(len(pt)), later)
+    b = a + 1 + (np.arange(len(a)) - np.repeat(np.cumsum(later) - later, later))
+    meet = np.einsum("ij,ij->i", ray[a], ray[b]) >= np.cos(np.radians(rule["pair_deg"]))
+    shared = sp.coo_matrix((np.ones(int(meet.sum())), (cam[a[meet]], cam[b[meet]])), shape=(n, n)).toarray()
+    shared += shared.T
+    size = np.bincount(cam, minlength=n)
+    links = shared >= rule["overlap"] * np.maximum(np.minimum(size[:, None], size[None, :]), 1)
+    np.fill_diagonal(links, False)
+    return links
+
+
 def largest_model_photos(colmap: Path) -> set[int]:
     import pycolmap
 
@@ -107,8 +140,9 @@ def score(route, scene, colmap: Path) -> list[dict]:
     real = inliers[iu]
     colmap_groups = [len(g) for g in triangle_groups(inliers >= GROUP_INLIERS)]
     rows = []
-    for test in LINK_TESTS:
-        links = shot_links(vis, positions, ev.samples.points, MatchRule(link_test=test), normals=ev.samples.normals)
+    for test in (*LINK_TESTS, "likely"):
+        links = likely_links(route, scene) if test == "likely" else shot_links(
+            vis, positions, ev.samples.points, MatchRule(link_test=test), normals=ev.samples.normals)
         predicted = links[iu]
         got = real[predicted]
         weak = np.flatnonzero(predicted & (real < WEAK_INLIERS))
