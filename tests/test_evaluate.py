@@ -149,3 +149,21 @@ def test_orientation_mismatch_and_altitude_are_reported(thesis_camera):
     assert ev.metrics["orientation_mismatches"] == 1
     assert ev.metrics["altitude_violations"] >= 1  # z 0.5 < ground 0 + min altitude 1
     assert not ev.safe
+
+
+def test_photos_at_the_two_ends_of_a_long_wall_are_two_sets_and_the_summary_says_so(thesis_camera):
+    from coverplan.cli.summary import photo_sets_row
+
+    scene = scene_from_meshes([box(0, 0, 0, 40, 0.5, 10)])
+    # two photos a step apart at each end of a 40 m wall, 5 m off it: each pair shares most of
+    # its view, the two ends share nothing
+    shots = [((x, -5.0, 5.0), 0.0, 0.0) for x in (4.0, 6.0, 34.0, 36.0)]
+    graph = evaluate(one_shot_route(thesis_camera, shots), scene, spacing=0.25).metrics["shot_graph"]
+    assert graph["components"] == 2 and graph["largest_component"] == 2
+    name, text = photo_sets_row(graph)
+    assert name == "photo sets" and text.startswith("2 (largest 2 of 4 photos)") and "WARNING" in text
+    # the same photos spread along the wall a step apart link into one set
+    joined = [((x, -5.0, 5.0), 0.0, 0.0) for x in np.arange(4.0, 37.0, 2.0)]
+    graph = evaluate(one_shot_route(thesis_camera, joined), scene, spacing=0.25).metrics["shot_graph"]
+    assert graph["components"] == 1
+    assert "WARNING" not in photo_sets_row(graph)[1]

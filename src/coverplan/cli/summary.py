@@ -38,6 +38,8 @@ def plan_summary(route) -> str:
                                                  + (", with the existing photos" if m.get("existing") else "")))
         rows.insert(at + 1, ("min clearance", f"{ev['min_clearance_m']:.2f} m (security {route.security:g} m)"
                                               + ("" if ev["safe"] else "  UNSAFE")))
+        if ev.get("shot_graph"):
+            rows.insert(at + 2, photo_sets_row(ev["shot_graph"]))
     reasons: dict[str, float] = {}
     for u in route.uncovered:
         reasons[u["reason"]] = reasons.get(u["reason"], 0.0) + u.get("area_m2", 0.0)
@@ -47,6 +49,19 @@ def plan_summary(route) -> str:
         rows.append(("  note", note))
     width = max(len(r[0]) for r in rows)
     return "\n".join(f"{a.ljust(width)}  {b}" for a, b in rows)
+
+
+def photo_sets_row(graph: dict) -> tuple[str, str]:
+    """The summary's row for the evaluator's sets of linked photos (``evaluation.shot_graph``):
+    more than one set is said loudly, since SfM then tends to return a model per set (the
+    triangle prism's 51-photo ``--link-test samples`` plan, in four sets: 16-25 of 51 photos in
+    the largest of 3-4 models in three field draws, docs/reconstruction.md)."""
+    sets, largest, shots = graph["components"], graph["largest_component"], graph["shots"]
+    if sets <= 1:
+        return ("photo sets", f"1: every photo linked to the others ({graph.get('link_test', 'centroid')} "
+                              "link test, fresh samples)")
+    return ("photo sets", f"{sets} (largest {largest} of {shots} photos)  WARNING: SfM is likely to return "
+                          f"several models; run coverplan simulate before flying")
 
 
 def _ground(route):
