@@ -58,7 +58,7 @@ def photo_sets_row(graph: dict) -> tuple[str, str]:
     the largest of 3-4 models in three field draws, docs/reconstruction.md)."""
     sets, largest, shots = graph["components"], graph["largest_component"], graph["shots"]
     if sets <= 1:
-        text = f"1: every photo linked to the others ({graph.get('link_test', 'centroid')} link test, fresh samples)"
+        text = f"1: every photo linked to the others ({graph['link_test']} link test, fresh samples)"
     else:
         text = (f"{sets} (largest {largest} of {shots} photos)  WARNING: SfM is likely to return several models; "
                 "run coverplan simulate before flying")
