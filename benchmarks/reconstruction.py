@@ -64,7 +64,8 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--scenes", nargs="+", default=None, choices=sorted(SCENES))
-    flights = ["coverplan", "no-margin", "samples-links", "structure-scan", "scan+roof-grid", "thesis-rule"]
+    flights = ["coverplan", "no-margin", "samples-links", "edge-views", "structure-scan", "scan+roof-grid",
+               "thesis-rule"]
     parser.add_argument("--flights", nargs="+", default=["coverplan", "structure-scan", "scan+roof-grid"],
                         choices=flights)
     parser.add_argument("--conditions", nargs="+", default=["field"], choices=["ideal", "field", "harsh"])
@@ -105,6 +106,7 @@ def main(argv=None):
             routes = {"coverplan": lambda: ours,
                       "no-margin": lambda: plan(scene, camera, gsd=GSD, security=SECURITY, pose_margin="none"),
                       "thesis-rule": lambda: plan(scene, camera, gsd=GSD, security=SECURITY, rule="thesis"),
+                      "edge-views": lambda: plan(scene, camera, gsd=GSD, security=SECURITY, edge_views=True),
                       "samples-links": lambda: plan(scene, camera, gsd=GSD, security=SECURITY,
                                                     match=MatchRule(link_test="samples")),
                       "structure-scan": lambda: structure_scan(scene, camera, GSD, SECURITY, ours.positions[0]),

@@ -491,3 +491,41 @@ def test_lean_plan_under_the_samples_link_test_keeps_its_claims():
     assert ev.safe and ev.coverage_pct >= 99.9 and ev.metrics["sharp_view_pct"] >= 99.5
     g = ev.metrics["shot_graph"]
     assert g["link_test"] == "samples" and g["shots_short_of_neighbours"] == 0 and g["cut_shots"] == 0, g
+
+
+def test_edge_views_look_along_the_bisector_of_every_turn():
+    """A 20 x 10 x 8 m box: the surface turns at its four vertical corners and four eaves.
+    Every edge view stands 8 m from the box with its nearest point on an edge (distance and
+    nearest point worked out here from the box's bounds), looks straight at that point, and
+    sees both faces there at 45 deg; the corners and the eaves all get views, the flat faces none."""
+    from coverplan.shots.candidates import EDGE, edge_views
+    from coverplan.shots.reachability import scene_limits
+    from coverplan.shots.surface import sample_surface
+
+    lo, hi = np.array([0.0, 0.0, 0.0]), np.array([20.0, 10.0, 8.0])
+    scene = scene_from_meshes([box(*lo, *hi)], [])
+    camera = get_camera("phantom4pro")
+    limits = scene_limits(scene, security=3.0, d_opt=12.0, max_incidence_deg=70.0, min_altitude=3.0,
+                          pitch_range_deg=(-90.0, 30.0), vfov_deg=camera.vfov_deg)
+    views = edge_views(sample_surface(scene, 1.0), limits, camera, 8.0)
+    assert len(views) > 0 and (views.source == EDGE).all()
+    nearest = np.clip(views.positions, lo, hi)
+    assert np.allclose(np.linalg.norm(views.positions - nearest, axis=1), 8.0, atol=0.05)
+    on_bound = np.isclose(nearest, lo, atol=1e-6) | np.isclose(nearest, hi, atol=1e-6)
+    assert (on_bound.sum(axis=1) >= 2).all()  # on an edge, not inside a face
+    look = views.view_dirs
+    towards = (nearest - views.positions) / 8.0
+    assert np.allclose(look, towards, atol=0.02)
+    # The two faces at the edge: the bounds the nearest point lies on, each with its outward normal.
+    for k in range(len(views)):
+        normals = [sign * np.eye(3)[axis] for axis in range(3) for sign, bound in ((-1, lo), (1, hi))
+                   if np.isclose(nearest[k, axis], bound[axis], atol=1e-6) and not (sign == -1 and axis == 2)]
+        incidence = [np.degrees(np.arccos(-look[k] @ n)) for n in normals]
+        assert np.allclose(incidence, 45.0, atol=1.5), incidence
+    vertical = np.abs(look[:, 2]) < 0.02
+    eave = np.isclose(look[:, 2], -np.sqrt(0.5), atol=0.02)
+    assert (vertical | eave).all()
+    corners = {(round(x), round(y)) for x, y in nearest[vertical, :2]}
+    assert corners == {(0, 0), (20, 0), (0, 10), (20, 10)}
+    sides = {tuple(np.round(-look[k, :2] / np.linalg.norm(look[k, :2])).astype(int)) for k in np.flatnonzero(eave)}
+    assert sides == {(1, 0), (-1, 0), (0, 1), (0, -1)}

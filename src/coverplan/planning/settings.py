@@ -94,6 +94,10 @@ class PlanSettings:
         square-on views, so photos along a wall share one heading; "corners" is "square"
         with the rings' tilted views kept where a ring turns a corner (steps toward lanes,
         docs/flights.md).
+    edge_views : bool
+        Add candidates on the bisector of the faces at each edge where the surface turns by
+        45 deg or more (``candidates.edge_views``), seeing both faces alike; False: today's
+        candidates, for comparison.
     reversal_steps : float
         How much path the tour gives up to avoid one reversal, a photo where the direction of
         travel turns by more than 90 deg and the drone must stop, in typical steps (the median
@@ -131,6 +135,7 @@ class PlanSettings:
     fly: str = "through"
     pass_rules: PassRules = field(default_factory=PassRules)
     view_tilts: str = "varied"
+    edge_views: bool = False
     reversal_steps: float = DEFAULT_REVERSAL_STEPS
     reaim_steps: float = DEFAULT_REAIM_STEPS
     existing: ExistingShots | None = None

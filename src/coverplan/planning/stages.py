@@ -57,6 +57,7 @@ from coverplan.shots.bracing import brace_links
 from coverplan.shots.candidates import (
     Candidates,
     along_normals,
+    edge_views,
     facade_rings,
     from_probes,
     keep_safe,
@@ -212,9 +213,11 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
         cands = facade_rings(scene, camera, limits, setup.standoff, setup.spacing,
                              view_tilts=settings.view_tilts).concat(
             along_normals(samples, limits, camera, setup.standoff,
-                          n_tilts=4 if settings.view_tilts == "varied" else 0)).concat(
-            under_overhangs(samples, limits, camera, setup.extra_clearance))
-        cands = keep_safe(scene, cands, limits, setup.extra_clearance)
+                          n_tilts=4 if settings.view_tilts == "varied" else 0))
+        if settings.edge_views:
+            cands = cands.concat(edge_views(samples, limits, camera, setup.standoff))
+        cands = keep_safe(scene, cands.concat(under_overhangs(samples, limits, camera, setup.extra_clearance)),
+                          limits, setup.extra_clearance)
 
     cover = CoverProblem(scene, camera, limits, samples, cands)
     with progress.stage("visibility matrix", total=len(cands), unit="cam") as update:
@@ -523,6 +526,7 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
     params["reaim_m"] = round(flight.reaim_m, 3)
     if settings.view_tilts != "varied":
         params["view_tilts"] = settings.view_tilts
+    params["edge_views"] = settings.edge_views
     if match is not None:
         params.update({"max_pair_deg": match.max_pair_deg, "min_overlap": match.min_overlap,
                        "min_neighbours": match.min_neighbours, "sharp_views": match.sharp_views,

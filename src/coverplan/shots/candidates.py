@@ -1,10 +1,12 @@
 """Candidate viewpoints: where a shot could be taken, and which way it would look.
 
-Four generators, all 3D:
+Five generators, all 3D:
 - ``facade_rings``: horizontal sections of the target (trimesh) offset outward by the
   standoff (shapely) and walked along, cameras facing the wall at a few headings;
 - ``along_normals``: for a thinned set of samples, positions at the standoff along the
   normal and along directions tilted from it (roofs look down, overhang undersides up);
+- ``edge_views``: cameras on the bisector of the two faces at each edge where the surface
+  turns (a wall's corner, a roof's eave or ridge), seeing both faces alike;
 - ``under_overhangs``: for down-facing samples, cameras below and beside them looking up as
   steeply as the gimbal and the frame allow (``along_normals`` puts those under the ground);
 - ``from_probes``: for samples the others leave short, the reachability probes that work.
@@ -18,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
+from scipy.spatial import cKDTree
 from shapely.geometry import MultiPolygon, Polygon
 from shapely.ops import unary_union
 
@@ -40,7 +43,7 @@ class Candidates:
     positions: np.ndarray
     heading_deg: np.ndarray
     pitch_deg: np.ndarray
-    source: np.ndarray  # 0 facade ring, 1 along normal, 2 probe, EXISTING a photo already taken
+    source: np.ndarray  # 0 facade ring, 1 along normal, 2 probe, EDGE (3) edge view, EXISTING a photo already taken
 
     def __len__(self) -> int:
         return len(self.positions)
@@ -151,6 +154,63 @@ def along_normals(samples, limits: ViewLimits, camera, distance: float, tilt_deg
     rays = out.reshape(-1, 3)
     ok = limits.elevation_ok(rays)
     return Candidates.looking(positions[ok], -rays[ok], limits, source=1)
+
+
+EDGE = 3  # Candidates.source of edge_views
+EDGE_TURN_DEG = 45.0  # the surface turns at least this much at an edge
+
+
+def edge_views(samples, limits: ViewLimits, camera, distance: float,
+               min_turn_deg: float = EDGE_TURN_DEG) -> Candidates:
+    """Cameras at ``distance`` from each edge where the surface turns, looking back along
+    the bisector of its two faces' normals.
+
+    At a corner the other generators look square at one face or the other (or 30 deg off it),
+    so a photo sees the face beyond the corner at 60 deg or more, where SfM rarely matches
+    it: under field conditions the faces of the square, the triangle and the flush target
+    came back as models of their own, joined only through such photos
+    (docs/reconstruction.md). A camera on the bisector sees both faces alike.
+
+    Parameters
+    ----------
+    samples : SurfaceSamples
+        The planner's samples; neighbours within 1.5 spacings whose normals turn by at least
+        ``min_turn_deg`` mark an edge.
+    limits : ViewLimits
+    camera : Camera
+    distance : float
+        Standoff from the edge, m.
+    min_turn_deg : float
+
+    Returns
+    -------
+    Candidates
+        One per edge point kept by ``thin`` (source ``EDGE``).
+    """
+    points, normals = samples.points, samples.normals
+    if len(points) < 2:
+        return Candidates.empty()
+    pairs = cKDTree(points).query_pairs(1.5 * samples.spacing, output_type="ndarray")
+    i, j = pairs[:, 0], pairs[:, 1]
+    bisector = normals[i] + normals[j]
+    length = np.linalg.norm(bisector, axis=1)
+    # Faces turning by 150 deg or more (a thin fin, a blade) have no bisector both see.
+    turns = (np.einsum("ij,ij->i", normals[i], normals[j]) <= np.cos(np.radians(min_turn_deg))) & (length > 0.5)
+    i, j = i[turns], j[turns]
+    ni, nj = normals[i], normals[j]
+    middle = 0.5 * (points[i] + points[j])
+    # The point of the edge (where the two faces' planes meet) nearest the pair's midpoint,
+    # which lies inside the corner: middle + a ni + b nj on both planes.
+    c = np.einsum("ij,ij->i", ni, nj)
+    u = -np.einsum("ij,ij->i", ni, middle - points[i])
+    v = -np.einsum("ij,ij->i", nj, middle - points[j])
+    det = 1.0 - c * c
+    middle = middle + ((u - c * v) / det)[:, None] * ni + ((v - c * u) / det)[:, None] * nj
+    bisector = bisector[turns] / length[turns, None]
+    picked = thin(middle, bisector, max(camera.footprint(distance)[1] * 0.35, samples.spacing))
+    middle, bisector = middle[picked], bisector[picked]
+    ok = limits.elevation_ok(bisector)
+    return Candidates.looking(middle[ok] + bisector[ok] * distance, -bisector[ok], limits, source=EDGE)
 
 
 def under_overhangs(samples, limits: ViewLimits, camera, margin: float, n_azimuths: int = 8) -> Candidates:
