@@ -58,6 +58,7 @@ from coverplan.shots.candidates import (
     Candidates,
     along_normals,
     edge_views,
+    required_edge_views,
     facade_rings,
     from_probes,
     keep_safe,
@@ -191,7 +192,13 @@ class Problem:
     links_job: Future | None
     lattice_job: Future | None
     fixed: np.ndarray  # (k,) candidate indices of photos already taken (settings.existing)
+    required: np.ndarray  # (k,) candidate indices every plan takes: the edge views (settings.edge_views)
     fill: np.ndarray  # (candidates, N_BINS) frame_fill of the candidates (framing.py); no columns without framed views
+
+    @property
+    def kept(self) -> np.ndarray:
+        """(k,) candidate indices every plan keeps: the photos already taken and the required ones."""
+        return np.union1d(self.fixed, self.required)
 
 
 def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Problem:
@@ -267,7 +274,9 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
     if h == _lattice_spacing(scene, np.zeros((0, 3)), setup):
         lattice_job = pool.submit(build_lattice, scene, limits, lattice_box(scene, limits, np.zeros((0, 3)), h),
                                   setup.start, margin=setup.extra_clearance, spacing=h)
-    return Problem(samples, reach, cover, vis, rays, fine_job, links_job, lattice_job, fixed, fill)
+    required = required_edge_views(cover.cands, camera, setup.standoff) if settings.edge_views \
+        else np.zeros(0, dtype=np.int64)
+    return Problem(samples, reach, cover, vis, rays, fine_job, links_job, lattice_job, fixed, required, fill)
 
 
 @dataclass(frozen=True)
@@ -296,7 +305,7 @@ def select_shots(problem: Problem, setup: Setup, progress: Progress) -> Selectio
     with progress.stage("view selection", unit="shot") as update:
         selection = select_views(problem.vis, problem.rays, settings.min_views, setup.min_triangulation_deg,
                                  lp_time_limit=settings.lp_time_limit, progress=update, max_pair_deg=setup.max_pair_deg,
-                                 preset=problem.fixed if len(problem.fixed) else None, wanted=wanted)
+                                 preset=problem.kept if len(problem.kept) else None, wanted=wanted)
     chosen = selection.chosen
     covering = len(chosen)
     if match is not None and match.sharp_views and len(chosen):
@@ -380,7 +389,7 @@ def close_gaps(problem: Problem, selection: Selection, setup: Setup, progress: P
                 added = cover.cands.subset(np.arange(len(fill), len(cover.cands)))
                 fill = np.vstack([fill, _fill_of(cover.scene, added, setup)])
             chosen = _drop_redundant(cover, closer, chosen, check.covered, coarse, vis, match, fill,
-                                     keep=problem.fixed)
+                                     keep=problem.kept)
             check = closer.kept(check, chosen)
         dropped = complete - len(chosen)
         check_links = 0
@@ -395,7 +404,7 @@ def close_gaps(problem: Problem, selection: Selection, setup: Setup, progress: P
         trimmed = 0
         if lean(match) and len(chosen) > 2:
             before = len(chosen)
-            chosen = _trim(cover, closer, chosen, check, coarse, vis, match, fill, problem.fixed)
+            chosen = _trim(cover, closer, chosen, check, coarse, vis, match, fill, problem.kept)
             trimmed = before - len(chosen)
             if trimmed:
                 check = closer.kept(check, chosen)

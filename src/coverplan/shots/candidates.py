@@ -213,6 +213,26 @@ def edge_views(samples, limits: ViewLimits, camera, distance: float,
     return Candidates.looking(middle[ok] + bisector[ok] * distance, -bisector[ok], limits, source=EDGE)
 
 
+EDGE_VIEW_SPACING = 1.0  # required edge views along an edge, in frame widths at the standoff
+
+
+def required_edge_views(cands: Candidates, camera, distance: float) -> np.ndarray:
+    """Indices of the edge views (``source == EDGE``) every plan with edge views takes: one
+    per ``EDGE_VIEW_SPACING`` frame widths along each edge, so that each face is joined to
+    the face beyond its edge by a photo that sees both alike.
+
+    Returns
+    -------
+    (k,) int
+        Indices into ``cands``.
+    """
+    edge = np.flatnonzero(cands.source == EDGE)
+    if len(edge) == 0:
+        return edge
+    picked = thin(cands.positions[edge], -cands.view_dirs[edge], EDGE_VIEW_SPACING * camera.footprint(distance)[0])
+    return np.sort(edge[picked])
+
+
 def under_overhangs(samples, limits: ViewLimits, camera, margin: float, n_azimuths: int = 8) -> Candidates:
     """Cameras that see down-facing samples at the smallest incidence the gimbal allows.
 
