@@ -501,9 +501,9 @@ def _add_planning_args(p):
                         "tilted only where the façade rings turn a corner; square: square-on only, so photos "
                         "along a wall share one heading (docs/flights.md, \"Lanes\")")
     p.add_argument("--edge-views", choices=["on", "off"], default="off",
-                   help="on: also candidate views on the bisector of the faces at each edge where the surface turns "
-                        "(a corner, an eave), seeing both faces alike (docs/reconstruction.md, \"Edge views\"); "
-                        "off (default): without them")
+                   help="on: a photo from the bisector of the two faces every frame width along each edge where "
+                        "the surface turns (a corner, an eave), seeing both faces alike (docs/reconstruction.md, "
+                        "\"Edge views\"); off (default): without them")
     p.add_argument("--reversal-cost", type=float, default=DEFAULT_REVERSAL_STEPS, metavar="STEPS",
                    help=f"how much path the tour gives up to avoid one reversal (a photo where the flight turns back "
                         f"by more than 90 deg and must stop), in typical steps between neighbouring photos (default "

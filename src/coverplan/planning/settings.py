@@ -95,9 +95,9 @@ class PlanSettings:
         with the rings' tilted views kept where a ring turns a corner (steps toward lanes,
         docs/flights.md).
     edge_views : bool
-        Add candidates on the bisector of the faces at each edge where the surface turns by
-        45 deg or more (``candidates.edge_views``), seeing both faces alike; False: today's
-        candidates, for comparison.
+        Take a photo from the bisector of the two faces every frame width along each edge
+        where the surface turns by 45 deg or more (``candidates.edge_views``), seeing both
+        faces alike, so that SfM joins each face to the next; False: without them.
     reversal_steps : float
         How much path the tour gives up to avoid one reversal, a photo where the direction of
         travel turns by more than 90 deg and the drone must stop, in typical steps (the median

@@ -216,17 +216,34 @@ def edge_views(samples, limits: ViewLimits, camera, distance: float,
 EDGE_VIEW_SPACING = 1.0  # required edge views along an edge, in frame widths at the standoff
 
 
-def required_edge_views(cands: Candidates, camera, distance: float) -> np.ndarray:
+EDGE_VIEW_MIN_SHARE = 0.5  # a required edge view sees at least this share of a median candidate's samples
+
+
+def required_edge_views(cands: Candidates, camera, distance: float, seen: np.ndarray) -> np.ndarray:
     """Indices of the edge views (``source == EDGE``) every plan with edge views takes: one
     per ``EDGE_VIEW_SPACING`` frame widths along each edge, so that each face is joined to
     the face beyond its edge by a photo that sees both alike.
+
+    Views that see less than ``EDGE_VIEW_MIN_SHARE`` of what the median candidate sees are
+    not required: above a spire's tip or a chimney's corner the faces are too small for a
+    photo of them to match the others (the chapel's spire tip: 51 samples against a median
+    1,148, linked to no other photo).
+
+    Parameters
+    ----------
+    cands : Candidates
+    camera : Camera
+    distance : float
+        The standoff, m.
+    seen : (len(cands),) int
+        Samples each candidate images.
 
     Returns
     -------
     (k,) int
         Indices into ``cands``.
     """
-    edge = np.flatnonzero(cands.source == EDGE)
+    edge = np.flatnonzero((cands.source == EDGE) & (seen >= EDGE_VIEW_MIN_SHARE * np.median(seen)))
     if len(edge) == 0:
         return edge
     picked = thin(cands.positions[edge], -cands.view_dirs[edge], EDGE_VIEW_SPACING * camera.footprint(distance)[0])
