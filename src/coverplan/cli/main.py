@@ -268,8 +268,8 @@ def _plan_options(args) -> dict:
                 max_flight_min=args.max_flight_min, max_mission_items=items,
                 lp_time_limit=args.lp_time_limit, surface_classes=args.only, pose_margin=args.margin,
                 keep_out=tuple(args.keep_out), keep_in=tuple(args.keep_in), zone_margin=args.zone_margin,
-                fly=args.fly, view_tilts=args.view_tilts, edge_views=args.edge_views == "on", reversal_steps=args.reversal_cost,
-                reaim_steps=args.reaim_cost,
+                fly=args.fly, view_tilts=args.view_tilts, edge_views=args.edge_views == "on",
+                reversal_steps=args.reversal_cost, reaim_steps=args.reaim_cost,
                 max_memory=None if args.max_memory_gb is None
                 else check_positive("--max-memory-gb", args.max_memory_gb) * 1e9)
 

@@ -58,10 +58,10 @@ from coverplan.shots.candidates import (
     Candidates,
     along_normals,
     edge_views,
-    required_edge_views,
     facade_rings,
     from_probes,
     keep_safe,
+    required_edge_views,
     standoff,
     under_overhangs,
 )

@@ -214,8 +214,6 @@ def edge_views(samples, limits: ViewLimits, camera, distance: float,
 
 
 EDGE_VIEW_SPACING = 1.0  # required edge views along an edge, in frame widths at the standoff
-
-
 EDGE_VIEW_MIN_SHARE = 0.5  # a required edge view sees at least this share of a median candidate's samples
 
 
