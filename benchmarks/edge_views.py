@@ -25,7 +25,7 @@ def row(name: str, scene, edge_views: bool, repeats: int) -> dict:
                                         edge_views=edge_views), repeats)
     ev = evaluate(route, scene)
     graph = ev.metrics["shot_graph"]
-    return {"scene": name, "edge_views": edge_views, "photos": int(len(route.shots)),
+    return {"scene": name, "edge_views": edge_views, "photos": len(route.shots),
             "photo_sets": graph["components"], "cut_photos": graph["cut_shots"],
             "coverage_pct": ev.metrics["coverage_pct"], "safe": bool(ev.metrics["safe"]), "plan_s": seconds}
 
