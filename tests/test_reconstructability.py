@@ -564,3 +564,28 @@ def test_edge_views_join_every_wall_to_the_roof():
     without = plan(scene, camera, gsd=0.004, security=3.0, edge_views=False)
     assert max(bridging(without)) == 0, bridging(without)
     assert len(route.shots) <= 1.25 * len(without.shots), (len(route.shots), len(without.shots))
+
+
+def test_photos_already_taken_stand_in_for_the_edge_views_they_repeat():
+    """The box's required edge views: all of them again when photos already taken look the
+    other way from the same places, none when the photos taken are those views moved 1 m
+    and turned 10 deg."""
+    from coverplan.shots.candidates import Candidates, edge_views, required_edge_views
+    from coverplan.shots.reachability import scene_limits
+    from coverplan.shots.surface import sample_surface
+
+    scene = scene_from_meshes([box(0.0, 0.0, 0.0, 20.0, 10.0, 8.0)], [])
+    camera = get_camera("phantom4pro")
+    limits = scene_limits(scene, security=3.0, d_opt=12.0, max_incidence_deg=70.0, min_altitude=3.0,
+                          pitch_range_deg=(-90.0, 30.0), vfov_deg=camera.vfov_deg)
+    views = edge_views(sample_surface(scene, 1.0), limits, camera, 8.0)
+    seen = np.full(len(views), 100)
+    required = required_edge_views(views, camera, 8.0, seen)
+    assert len(required) >= 8  # four corners, four eaves
+    kept = views.subset(required)
+    away = Candidates.looking(kept.positions, -kept.view_dirs, limits, source=0)
+    assert np.array_equal(required_edge_views(views, camera, 8.0, seen, taken=away), required)
+    turn = np.radians(10.0)
+    rot = np.array([[np.cos(turn), -np.sin(turn), 0.0], [np.sin(turn), np.cos(turn), 0.0], [0.0, 0.0, 1.0]])
+    alike = Candidates.looking(kept.positions + [0.0, 0.0, 1.0], kept.view_dirs @ rot.T, limits, source=0)
+    assert len(required_edge_views(views, camera, 8.0, seen, taken=alike)) == 0

@@ -274,7 +274,8 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
     if h == _lattice_spacing(scene, np.zeros((0, 3)), setup):
         lattice_job = pool.submit(build_lattice, scene, limits, lattice_box(scene, limits, np.zeros((0, 3)), h),
                                   setup.start, margin=setup.extra_clearance, spacing=h)
-    required = required_edge_views(cover.cands, camera, setup.standoff, vis.getnnz(axis=1)) \
+    required = required_edge_views(cover.cands, camera, setup.standoff, vis.getnnz(axis=1),
+                                   taken=cover.cands.subset(fixed)) \
         if settings.edge_views else np.zeros(0, dtype=np.int64)
     return Problem(samples, reach, cover, vis, rays, fine_job, links_job, lattice_job, fixed, required, fill)
 

@@ -215,9 +215,11 @@ def edge_views(samples, limits: ViewLimits, camera, distance: float,
 
 EDGE_VIEW_SPACING = 1.0  # required edge views along an edge, in frame widths at the standoff
 EDGE_VIEW_MIN_SHARE = 0.5  # a required edge view sees at least this share of a median candidate's samples
+EDGE_VIEW_STAND_IN_DEG = 20.0  # a photo already taken this close in direction stands in for an edge view
 
 
-def required_edge_views(cands: Candidates, camera, distance: float, seen: np.ndarray) -> np.ndarray:
+def required_edge_views(cands: Candidates, camera, distance: float, seen: np.ndarray,
+                        taken: Candidates | None = None) -> np.ndarray:
     """Indices of the edge views (``source == EDGE``) every plan with edge views takes: one
     per ``EDGE_VIEW_SPACING`` frame widths along each edge, so that each face is joined to
     the face beyond its edge by a photo that sees both alike.
@@ -227,6 +229,10 @@ def required_edge_views(cands: Candidates, camera, distance: float, seen: np.nda
     photo of them to match the others (the chapel's spire tip: 51 samples against a median
     1,148, linked to no other photo).
 
+    Nor are views a photo already taken stands in for: one within half the spacing, looking
+    within ``EDGE_VIEW_STAND_IN_DEG`` of the same way (a re-flight of a gap does not fly the
+    edges the first flight photographed).
+
     Parameters
     ----------
     cands : Candidates
@@ -235,6 +241,8 @@ def required_edge_views(cands: Candidates, camera, distance: float, seen: np.nda
         The standoff, m.
     seen : (len(cands),) int
         Samples each candidate images.
+    taken : Candidates, optional
+        Photos already taken.
 
     Returns
     -------
@@ -244,8 +252,15 @@ def required_edge_views(cands: Candidates, camera, distance: float, seen: np.nda
     edge = np.flatnonzero((cands.source == EDGE) & (seen >= EDGE_VIEW_MIN_SHARE * np.median(seen)))
     if len(edge) == 0:
         return edge
-    picked = thin(cands.positions[edge], -cands.view_dirs[edge], EDGE_VIEW_SPACING * camera.footprint(distance)[0])
-    return np.sort(edge[picked])
+    spacing = EDGE_VIEW_SPACING * camera.footprint(distance)[0]
+    picked = edge[thin(cands.positions[edge], -cands.view_dirs[edge], spacing)]
+    if taken is not None and len(taken):
+        near = cKDTree(cands.positions[picked]).sparse_distance_matrix(
+            cKDTree(taken.positions), 0.5 * spacing, output_type="ndarray")
+        alike = np.einsum("ij,ij->i", cands.view_dirs[picked[near["i"]]], taken.view_dirs[near["j"]]) \
+            >= np.cos(np.radians(EDGE_VIEW_STAND_IN_DEG))
+        picked = np.delete(picked, np.unique(near["i"][alike]))
+    return np.sort(picked)
 
 
 def under_overhangs(samples, limits: ViewLimits, camera, margin: float, n_azimuths: int = 8) -> Candidates:
