@@ -19,7 +19,8 @@ through by the same model and drone: photos, minutes, path, photos in passing, s
 plan with square-on views only (``--view-tilts square``), the shortest tour
 (``--reversal-cost 0 --reaim-cost 0``) and the tour without the re-aim cost (``--reaim-cost 0``)
 beside the default, each re-checked by the evaluator (coverage at 0.25 m).
-``--quick``: the ring prism (4 mm/px, 3 m security) at one limit, and three scenes.
+``--quick``: the ring prism (4 mm/px, 3 m security) at one limit, and three scenes. ``--parts``
+runs some of the three (results/flights_PARTS.json when not all).
 """
 
 from __future__ import annotations
@@ -131,22 +132,23 @@ def through_rows(names, gsd: float = 0.004, security: float = 3.0) -> list[dict]
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true")
+    parser.add_argument("--parts", nargs="+", type=int, choices=[1, 2, 3], default=[1, 2, 3])
     args = parser.parse_args(argv)
     names = ["square", "gabled", "triangle"] if args.quick else list(SCENES)
-    splits = split_rows("ring_prism.obj", 0.004, 3.0, [3.0]) if args.quick else \
+    splits = [] if 1 not in args.parts else split_rows("ring_prism.obj", 0.004, 3.0, [3.0]) if args.quick else \
         split_rows("courtyard.obj", 0.0015, 2.0, [5.0, 10.0, 14.0])
     print(table(splits, [("limit_min", "limit min", "g"), ("flights", "flights", "d"), ("shots", "shots", "d"),
                          ("longest_min", "longest min", ".2f"), ("total_min", "total min", ".1f"),
                          ("path_m", "path m", ".0f"), ("path_ratio", "path x single", ".3f"),
                          ("home", "start=end", ""), ("same_shots", "same shots", ""), ("safe", "safe", ""),
                          ("split_s", "split s", ".2f"), ("plan_s", "plan s", ".1f")]))
-    timings = model_rows(names)
+    timings = model_rows(names) if 2 in args.parts else []
     print(table(timings, [("scene", "scene", ""), ("shots", "shots", "d"), ("waypoints", "waypoints", "d"),
                           ("path_m", "path m", ".0f"), ("simple_min", "simple min", ".1f"),
                           ("model_min", "model min", ".1f"), ("ratio", "model/simple", ".2f"),
                           ("travel_min", "travel", ".1f"), ("wait_min", "yaw/gimbal wait", ".2f"),
                           ("photos_min", "photos", ".1f"), ("ground_min", "take-off+landing", ".2f")]))
-    passing = through_rows(names)
+    passing = through_rows(names) if 3 in args.parts else []
     print(table(passing, [("scene", "scene", ""), ("ours_photos", "ours photos", "d"),
                           ("ours_stop_min", "ours stop min", ".1f"), ("ours_min", "ours through min", ".1f"),
                           ("ours_passing_pct", "in passing %", ".0f"), ("ours_smooth_pct", "smooth %", ".0f"),
@@ -188,7 +190,8 @@ def main(argv=None):
                           ("ours_passing_pct", "ours in passing %", ".0f"),
                           ("noreaim_vs_grid_min", "no re-aim/grid min", ".2f"),
                           ("ours_coverage_pct", "ours @0.25 m %", ".2f")]))
-    path = write_json("flights", args.quick, {"rows": splits, "model_vs_simple": timings, "flying_through": passing})
+    parts = sorted(set(args.parts))
+    path = write_json("flights" + ("" if parts == [1, 2, 3] else "_" + "".join(map(str, parts))), args.quick, {"rows": splits, "model_vs_simple": timings, "flying_through": passing})
     print(f"written {path}")
 
 
