@@ -569,8 +569,7 @@ def test_edge_views_join_every_wall_to_the_roof():
 def test_photos_already_taken_stand_in_for_the_edge_views_they_repeat():
     """The box's required edge views: all of them again when photos already taken look the
     other way from the same places, none when the photos taken are those views moved 1 m
-    and turned 10 deg; the thesis's rule leaves them out unless asked, the sfm rule takes them."""
-    from coverplan.planning.settings import PlanSettings
+    and turned 10 deg."""
     from coverplan.shots.candidates import Candidates, edge_views, required_edge_views
     from coverplan.shots.reachability import scene_limits
     from coverplan.shots.surface import sample_surface
@@ -590,6 +589,3 @@ def test_photos_already_taken_stand_in_for_the_edge_views_they_repeat():
     rot = np.array([[np.cos(turn), -np.sin(turn), 0.0], [np.sin(turn), np.cos(turn), 0.0], [0.0, 0.0, 1.0]])
     alike = Candidates.looking(kept.positions + [0.0, 0.0, 1.0], kept.view_dirs @ rot.T, limits, source=0)
     assert len(required_edge_views(views, camera, 8.0, seen, taken=alike)) == 0
-    assert PlanSettings(gsd=0.004, security=3.0).edge_views is True
-    assert PlanSettings(gsd=0.004, security=3.0, rule="thesis").edge_views is False
-    assert PlanSettings(gsd=0.004, security=3.0, rule="thesis", edge_views=True).edge_views is True
