@@ -135,8 +135,12 @@ def main(argv=None):
     parser.add_argument("--parts", nargs="+", type=int, choices=[1, 2, 3], default=[1, 2, 3])
     args = parser.parse_args(argv)
     names = ["square", "gabled", "triangle"] if args.quick else list(SCENES)
-    splits = [] if 1 not in args.parts else split_rows("ring_prism.obj", 0.004, 3.0, [3.0]) if args.quick else \
-        split_rows("courtyard.obj", 0.0015, 2.0, [5.0, 10.0, 14.0])
+    if 1 not in args.parts:
+        splits = []
+    elif args.quick:
+        splits = split_rows("ring_prism.obj", 0.004, 3.0, [3.0])
+    else:
+        splits = split_rows("courtyard.obj", 0.0015, 2.0, [5.0, 10.0, 14.0])
     print(table(splits, [("limit_min", "limit min", "g"), ("flights", "flights", "d"), ("shots", "shots", "d"),
                          ("longest_min", "longest min", ".2f"), ("total_min", "total min", ".1f"),
                          ("path_m", "path m", ".0f"), ("path_ratio", "path x single", ".3f"),
@@ -191,7 +195,8 @@ def main(argv=None):
                           ("noreaim_vs_grid_min", "no re-aim/grid min", ".2f"),
                           ("ours_coverage_pct", "ours @0.25 m %", ".2f")]))
     parts = sorted(set(args.parts))
-    path = write_json("flights" + ("" if parts == [1, 2, 3] else "_" + "".join(map(str, parts))), args.quick, {"rows": splits, "model_vs_simple": timings, "flying_through": passing})
+    name = "flights" if parts == [1, 2, 3] else "flights_" + "".join(map(str, parts))
+    path = write_json(name, args.quick, {"rows": splits, "model_vs_simple": timings, "flying_through": passing})
     print(f"written {path}")
 
 

@@ -253,11 +253,12 @@ def required_edge_views(cands: Candidates, camera, distance: float, seen: np.nda
     if len(edge) == 0:
         return edge
     spacing = EDGE_VIEW_SPACING * camera.footprint(distance)[0]
-    picked = edge[thin(cands.positions[edge], -cands.view_dirs[edge], spacing)]
+    dirs = cands.view_dirs  # a property that converts every candidate's angles: once
+    picked = edge[thin(cands.positions[edge], -dirs[edge], spacing)]
     if taken is not None and len(taken):
         near = cKDTree(cands.positions[picked]).sparse_distance_matrix(
             cKDTree(taken.positions), 0.5 * spacing, output_type="ndarray")
-        alike = np.einsum("ij,ij->i", cands.view_dirs[picked[near["i"]]], taken.view_dirs[near["j"]]) \
+        alike = np.einsum("ij,ij->i", dirs[picked[near["i"]]], taken.view_dirs[near["j"]]) \
             >= np.cos(np.radians(EDGE_VIEW_STAND_IN_DEG))
         picked = np.delete(picked, np.unique(near["i"][alike]))
     return np.sort(picked)
