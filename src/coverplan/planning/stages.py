@@ -358,8 +358,9 @@ def close_gaps(problem: Problem, selection: Selection, setup: Setup, progress: P
     chosen, vis = selection.chosen, problem.vis
     known = problem.links_job.result() if problem.links_job is not None else None
     with progress.stage("fine check and repair"):
+        passing = settings.pass_rules.max_photo_offset_m if settings.fly == "through" else 0.0
         closer = GapCloser(cover, settings.min_views, setup.min_triangulation_deg, setup.max_pair_deg, setup.standoff,
-                           setup.extra_clearance, problem.fine_job.result())
+                           setup.extra_clearance, problem.fine_job.result(), sight_radius=passing)
         check = closer.check(chosen)
         history = [check.coverage_pct]
         while check.coverage_pct < TARGET_PCT and len(history) <= MAX_ROUNDS and closer.extend(check):

@@ -39,6 +39,7 @@ from coverplan.shots.visibility import (
     has_pair_between,
     imaging_pairs,
     imaging_pairs_firm,
+    seen_from_around,
     view_rays,
     visibility_matrix,
 )
@@ -191,11 +192,12 @@ class GapCloser:
     """Fine check of a selection, and the new samples and candidates for what it misses."""
 
     def __init__(self, problem: CoverProblem, min_views: int, min_triangulation_deg: float, max_pair_deg: float | None,
-                 distance: float, margin: float, fine: SurfaceSamples):
-        """``fine``: the check samples (``check_samples`` at ``planner_check_spacing``)."""
+                 distance: float, margin: float, fine: SurfaceSamples, sight_radius: float = 0.0):
+        """``fine``: the check samples (``check_samples`` at ``planner_check_spacing``);
+        ``sight_radius``: how far off its planned point a photo may be taken (flying through)."""
         self.p = problem
         self.min_views, self.min_triangulation_deg, self.max_pair_deg = min_views, min_triangulation_deg, max_pair_deg
-        self.distance, self.margin = distance, margin
+        self.distance, self.margin, self.sight_radius = distance, margin, sight_radius
         self.fine = fine
         self.ball_m = CHECK_BALL * self.fine.spacing
         self._tree = cKDTree(self.fine.points)
@@ -218,13 +220,19 @@ class GapCloser:
         new = np.setdiff1d(chosen, self._checked)
         if len(new):
             c = self.p.cands.subset(new)
+            offset = self.p.scene.epsilon * 4
             # firm: the view holds with CHECK_MARGIN off the frustum, range and incidence, for
             # all points within ``ball_m`` of the sample
             cam, pt, _, firm = imaging_pairs_firm(
                 c.positions, c.heading_deg, c.pitch_deg, self.p.camera, self.fine.points, self.fine.normals,
                 self.p.scene.rays, max_range=self.p.limits.d_opt, max_incidence_deg=self.p.limits.max_incidence_deg,
-                firm_shrink=CHECK_MARGIN, firm_ball_m=self.ball_m, offset=self.p.scene.epsilon * 4,
+                firm_shrink=CHECK_MARGIN, firm_ball_m=self.ball_m, offset=offset,
                 point_tree=self._tree)
+            # A photo taken in passing stands off its planned point: a view grazing past a
+            # window reveal held at the plan and was blocked where the drone took it (LOD3).
+            k = np.flatnonzero(firm)
+            firm[k] = seen_from_around(self.p.scene.rays, self.fine.points[pt[k]] + self.fine.normals[pt[k]] * offset,
+                                       c.positions[cam[k]], self.sight_radius)
             self._views = [np.concatenate([self._views[0], new[cam]]), np.concatenate([self._views[1], pt]),
                            np.concatenate([self._views[2], firm])]
             self._checked = np.union1d(self._checked, new)

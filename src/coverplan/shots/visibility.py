@@ -129,6 +129,38 @@ def clear_around(rays, points, normals, cameras, radius: float, skip: float) -> 
     return out
 
 
+def seen_from_around(rays, starts, cameras, radius: float) -> np.ndarray:
+    """Per (start, camera): whether the segment from ``start`` stays clear to every point
+    within ``radius`` of the camera across its line of sight, judged at the four corners of
+    the square circumscribing that disc: an edge that blocks some point of the disc blocks a
+    corner.
+
+    Parameters
+    ----------
+    rays : RayCaster
+    starts : (n, 3) float
+        Segment starts (a surface point lifted off its surface).
+    cameras : (n, 3) float
+    radius : float
+        How far the camera may stand off its position, metres.
+
+    Returns
+    -------
+    (n,) bool
+    """
+    starts, cameras = np.asarray(starts, dtype=float), np.asarray(cameras, dtype=float)
+    out = np.ones(len(starts), dtype=bool)
+    if radius <= 0 or len(starts) == 0:
+        return out
+    way = cameras - starts
+    way /= np.linalg.norm(way, axis=1, keepdims=True)
+    t1, t2 = tangent_frames(way)
+    for a, b in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
+        rows = np.flatnonzero(out)
+        out[rows] = ~rays.segments_blocked(starts[rows], cameras[rows] + radius * (a * t1[rows] + b * t2[rows]))
+    return out
+
+
 def in_view(x, y, z, dist, towards, tan_h: float, tan_v: float, reach: float, max_incidence_deg: float,
             ball_m: float = 0.0) -> np.ndarray:
     """Frustum, range and incidence tests from a point's camera-frame coordinates ``x, y, z``,
