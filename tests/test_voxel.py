@@ -59,10 +59,11 @@ def test_fully_hidden_surface_is_not_coverable(thesis_camera):
     route = plan(scene, thesis_camera, gsd=gsd_for(thesis_camera, 7.0), security=3.0, min_altitude=0.0,
                  surface_classes=("facade",), spacing=0.5, start=[0.5, 49.5, 0.5])
     ev = evaluate(route, scene)
-    # Over the 3 m wall, views 45-70 deg up still reach much of the 1 m high south face (9.4 of
-    # its 15.5 m² imaged since repair probes around known views); what stays hidden is there.
+    # Over the 3 m wall, views 45-70 deg up still reach much of the 1 m high south face (12.1 of
+    # its 15.5 m² imaged since the check rejects views that graze the wall's top: the repair
+    # then probes for steeper ones); what stays hidden is there.
     hidden = ~ev.reachable
-    assert ev.safe and ev.metrics["unreachable_area_m2"] > 4.0
+    assert ev.safe and ev.metrics["unreachable_area_m2"] > 2.5
     assert (ev.samples.normals[hidden, 1] < -0.9).all()
     listed = {tuple(np.round(u["position"], 6)) for u in route.uncovered}
     mine = evaluate(route, scene, samples=planner_check_samples(scene, route))  # what route.uncovered lists

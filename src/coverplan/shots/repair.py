@@ -79,14 +79,17 @@ class CoverProblem:
     cands: Candidates
     pairs: tuple = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))  # (candidate, sample, range)
     # Samples from column ``ball_from`` on (the check's, added by repair) are judged as the
-    # check judges them: every view must hold within ``ball_m`` of the sample.
+    # check judges them: every view must hold within ``ball_m`` of the sample, and its sight
+    # from ``sight_m`` off the camera.
     ball_m: float = 0.0
     ball_from: int = -1
+    sight_m: float = 0.0
 
     def pairs_between(self, cands: Candidates, samples: SurfaceSamples, progress=None,
-                      probe_shrink: float = 0.0, ball_m: float = 0.0) -> tuple:
+                      probe_shrink: float = 0.0, ball_m: float = 0.0, sight_m: float = 0.0) -> tuple:
         """Imaging pairs, structured candidates with the margin, probes with ``probe_shrink``;
-        with ``ball_m`` every view must hold around the sample too (``imaging_pairs``)."""
+        with ``ball_m`` every view must hold around the sample too (``imaging_pairs``), with
+        ``sight_m`` its sight from that far off the camera (``seen_from_around``)."""
         probe = cands.source == PROBE
         out = []
         for mask, shrink in ((~probe, SHRINK), (probe, probe_shrink)):
@@ -98,6 +101,10 @@ class CoverProblem:
                                     max_range=self.limits.d_opt, max_incidence_deg=self.limits.max_incidence_deg,
                                     shrink=shrink, ball_m=ball_m, offset=self.scene.epsilon * 4,
                                     progress=progress)
+            if sight_m > 0:
+                seen = seen_from_around(self.scene.rays, samples.points[p] + samples.normals[p] * self.scene.epsilon * 4,
+                                        cands.positions[idx[c]], sight_m)
+                c, p, r = c[seen], p[seen], r[seen]
             out.append((idx[c], p, r))
         if not out:
             return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
@@ -111,19 +118,20 @@ class CoverProblem:
         else:
             head = self.pairs_between(new, self.samples.subset(np.arange(self.ball_from)))
             c, p, r = self.pairs_between(new, self.samples.subset(np.arange(self.ball_from, len(self.samples))),
-                                         probe_shrink=CHECK_MARGIN, ball_m=self.ball_m)
+                                         probe_shrink=CHECK_MARGIN, ball_m=self.ball_m, sight_m=self.sight_m)
             c, p, r = _join(head, (c, p + self.ball_from, r))
         base = len(self.cands)
         self.cands = self.cands.concat(new)
         self.pairs = _join(self.pairs, (c + base, p, r))
 
-    def add_samples(self, new: SurfaceSamples, probe_shrink: float = 0.0, ball_m: float = 0.0) -> None:
+    def add_samples(self, new: SurfaceSamples, probe_shrink: float = 0.0, ball_m: float = 0.0,
+                    sight_m: float = 0.0) -> None:
         if len(new) == 0:
             return
-        c, p, r = self.pairs_between(self.cands, new, probe_shrink=probe_shrink, ball_m=ball_m)
+        c, p, r = self.pairs_between(self.cands, new, probe_shrink=probe_shrink, ball_m=ball_m, sight_m=sight_m)
         base = len(self.samples)
         if ball_m > 0 and self.ball_from < 0:
-            self.ball_m, self.ball_from = ball_m, base
+            self.ball_m, self.ball_from, self.sight_m = ball_m, base, sight_m
         self.samples = concat_samples(self.samples, new)
         self.pairs = _join(self.pairs, (c, p + base, r))
 
@@ -219,21 +227,8 @@ class GapCloser:
         chosen = np.asarray(chosen, dtype=np.int64)
         new = np.setdiff1d(chosen, self._checked)
         if len(new):
-            c = self.p.cands.subset(new)
-            offset = self.p.scene.epsilon * 4
-            # firm: the view holds with CHECK_MARGIN off the frustum, range and incidence, for
-            # all points within ``ball_m`` of the sample
-            cam, pt, _, firm = imaging_pairs_firm(
-                c.positions, c.heading_deg, c.pitch_deg, self.p.camera, self.fine.points, self.fine.normals,
-                self.p.scene.rays, max_range=self.p.limits.d_opt, max_incidence_deg=self.p.limits.max_incidence_deg,
-                firm_shrink=CHECK_MARGIN, firm_ball_m=self.ball_m, offset=offset,
-                point_tree=self._tree)
-            # A photo taken in passing stands off its planned point: a view grazing past a
-            # window reveal held at the plan and was blocked where the drone took it (LOD3).
-            k = np.flatnonzero(firm)
-            firm[k] = seen_from_around(self.p.scene.rays, self.fine.points[pt[k]] + self.fine.normals[pt[k]] * offset,
-                                       c.positions[cam[k]], self.sight_radius)
-            self._views = [np.concatenate([self._views[0], new[cam]]), np.concatenate([self._views[1], pt]),
+            cam, pt, firm = self._judge(new)
+            self._views = [np.concatenate([self._views[0], cam]), np.concatenate([self._views[1], pt]),
                            np.concatenate([self._views[2], firm])]
             self._checked = np.union1d(self._checked, new)
         who, pt, firm = self._views
@@ -257,6 +252,26 @@ class GapCloser:
             self.reach_known[unknown] = True
         self.reason[self.reachable] = ""  # a shot added later may image what the probes missed
         return FineCheck(self.fine, covered, self.reachable.copy(), self.reason.copy())
+
+    def _judge(self, cands: np.ndarray):
+        """Candidates ``cands`` on the check samples: (candidate, sample, firm) per view. Firm:
+        the view holds with CHECK_MARGIN off the frustum, range and incidence for all points
+        within ``ball_m`` of the sample, and its sight from wherever in passing the photo may
+        be taken."""
+        c = self.p.cands.subset(cands)
+        offset = self.p.scene.epsilon * 4
+        points, normals = self.fine.points, self.fine.normals
+        cam, pt, _, firm = imaging_pairs_firm(
+            c.positions, c.heading_deg, c.pitch_deg, self.p.camera, points, normals, self.p.scene.rays,
+            max_range=self.p.limits.d_opt, max_incidence_deg=self.p.limits.max_incidence_deg, firm_shrink=CHECK_MARGIN,
+            firm_ball_m=self.ball_m, offset=offset, point_tree=self._tree)
+        # A photo taken in passing stands off its planned point: a view grazing past a window
+        # reveal held at the plan and was blocked where the drone took it (LOD3).
+        k = np.flatnonzero(firm)
+        seen = seen_from_around(self.p.scene.rays, points[pt[k]] + normals[pt[k]] * offset, c.positions[cam[k]],
+                                self.sight_radius)
+        firm[k[~seen]] = False
+        return cands[cam], pt, firm
 
     def kept(self, check: FineCheck, chosen: np.ndarray) -> FineCheck:
         """``check`` for a subset ``chosen`` of its shots that covers every sample it covered
@@ -359,7 +374,8 @@ class GapCloser:
     def _add(self, todo: np.ndarray) -> None:
         self.column[todo] = len(self.p.samples) + np.arange(len(todo))
         # Judged here as the check judges them, or repair would pick views the check rejects.
-        self.p.add_samples(self.fine.subset(todo), probe_shrink=CHECK_MARGIN, ball_m=self.ball_m)
+        self.p.add_samples(self.fine.subset(todo), probe_shrink=CHECK_MARGIN, ball_m=self.ball_m,
+                           sight_m=self.sight_radius)
 
     def sharpen(self, chosen: np.ndarray, views: int, kinds=(OPPOSED_TERRACE,)) -> np.ndarray:
         """``add_sharp_views`` judged on the check samples of the given surface classes (default
