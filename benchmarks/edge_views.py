@@ -1,10 +1,11 @@
-"""What edge views cost: the sample scenes planned with and without ``--edge-views on``.
+"""What edge views cost: the sample scenes planned with them (``--edge-views on``, the
+default) and without (``--edge-views off``).
 
 Field settings (as ``reconstruction.py``: Phantom 4 Pro, 4 mm/px, 3 m security). Per scene and
 way: photos and their ratio, the evaluator's photo sets and cut photos on its own samples,
 coverage at 0.25 m, safety, and planning time (median of ``--repeats`` runs) and its ratio.
-Whether the photos reconstruct is ``reconstruction.py --flights edge-views``'s question.
-``--quick`` plans the square once.
+Whether the photos reconstruct is ``reconstruction.py --flights coverplan no-edge-views``'s
+question. ``--quick`` plans the square once.
 """
 
 from __future__ import annotations

@@ -6,7 +6,8 @@ their photos rendered on the textured scene as a drone would take them and run t
 (``coverplan.sfm.simulate``); the table gives photos, path, flight time, planning time, photos
 registered in the largest model, number of models and the share of the target surface with a
 3D point within 0.2 m, overall and per surface class, worst and median of the draws. Also the
-thesis's rule (``--rule thesis``) and the plan without its pose margin (``--margin none``).
+thesis's rule (``--rule thesis``), the plan without its pose margin (``--margin none``) and
+without its edge views (``--edge-views off``).
 Slow (minutes per flight): not part of the test suite. ``--quick`` runs one small scene.
 """
 
@@ -64,7 +65,7 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--quick", action="store_true")
     parser.add_argument("--scenes", nargs="+", default=None, choices=sorted(SCENES))
-    flights = ["coverplan", "no-margin", "samples-links", "edge-views", "structure-scan", "scan+roof-grid",
+    flights = ["coverplan", "no-margin", "samples-links", "no-edge-views", "structure-scan", "scan+roof-grid",
                "thesis-rule"]
     parser.add_argument("--flights", nargs="+", default=["coverplan", "structure-scan", "scan+roof-grid"],
                         choices=flights)
@@ -106,7 +107,7 @@ def main(argv=None):
             routes = {"coverplan": lambda: ours,
                       "no-margin": lambda: plan(scene, camera, gsd=GSD, security=SECURITY, pose_margin="none"),
                       "thesis-rule": lambda: plan(scene, camera, gsd=GSD, security=SECURITY, rule="thesis"),
-                      "edge-views": lambda: plan(scene, camera, gsd=GSD, security=SECURITY, edge_views=True),
+                      "no-edge-views": lambda: plan(scene, camera, gsd=GSD, security=SECURITY, edge_views=False),
                       "samples-links": lambda: plan(scene, camera, gsd=GSD, security=SECURITY,
                                                     match=MatchRule(link_test="samples")),
                       "structure-scan": lambda: structure_scan(scene, camera, GSD, SECURITY, ours.positions[0]),

@@ -34,7 +34,9 @@ def test_photo_tags_round_trip(tmp_path):
 @pytest.mark.xdist_group("photos_check")
 def test_check_finds_one_model_and_names_the_side_left_out(tmp_path, capsys):
     scene = load_scene(MESHES / "gabled_house.obj", geodetic_origin=[float(v) for v in ORIGIN])
-    route = plan(scene, get_camera("phantom4pro"), gsd=0.004, security=3.0)
+    # Without edge views: a corner's edge view sees the north façade and the side beside it
+    # alike, so leaving out every photo north of the house would take part of a side too.
+    route = plan(scene, get_camera("phantom4pro"), gsd=0.004, security=3.0, edge_views=False)
     north = scene.bounds("target")[1][1]
     keep = np.flatnonzero(route.positions[route.shots][:, 1] <= north)  # no photo from north of the house
     folder = tmp_path / "photos"

@@ -74,10 +74,11 @@ def test_framed_views_ask_the_fill_or_most_of_the_best_there_is():
 @pytest.fixture(scope="module")
 def tower_plans(tmp_path_factory):
     """A 4.5 m square tower of 24 m beside a 10 m hall, planned with two framed views per sample
-    and by default (none asked)."""
+    and by default (none asked), both without edge views: the rule's own effect (edge views
+    alone frame 98.1 % of the tower's faces twice, the rule 99.8 %)."""
     tmp = tmp_path_factory.mktemp("tower")
     scene = _scene(tmp, box(0, 0, 0, 4.5, 4.5, 24), box(4.5, -2, 0, 22.5, 6.5, 10))
-    kw = dict(gsd=0.004, security=3.0, fly="stop")
+    kw = dict(gsd=0.004, security=3.0, fly="stop", edge_views=False)
     return scene, plan(scene, CAMERA, match=MatchRule(framed_views=2), **kw), plan(scene, CAMERA, **kw)
 
 

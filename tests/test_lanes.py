@@ -76,14 +76,16 @@ def test_square_ring_candidates_face_their_wall_square_on():
 
 @pytest.fixture(scope="module")
 def gabled():
+    """The gabled house's plans without edge views, so each comparison isolates its own option:
+    the edge views' photos, each turned half-way between two faces, interleave with the walls'
+    and leave the re-aim cost 8 pp of smooth steps to gain (25 % to 33 %) where it gains 15+."""
     scene = load_scene(MESHES / "gabled_house.obj")
     camera = get_camera("phantom4pro")
-    routes = {tilts: plan(scene, camera, gsd=0.004, security=SECURITY, view_tilts=tilts)
-              for tilts in ("varied", "square")}
-    routes["shortest"] = plan(scene, camera, gsd=0.004, security=SECURITY, reversal_steps=0.0, reaim_steps=0.0)
-    routes["no re-aim cost"] = plan(scene, camera, gsd=0.004, security=SECURITY, reaim_steps=0.0)
-    routes["square, no re-aim cost"] = plan(scene, camera, gsd=0.004, security=SECURITY, view_tilts="square",
-                                            reaim_steps=0.0)
+    kw = dict(gsd=0.004, security=SECURITY, edge_views=False)
+    routes = {tilts: plan(scene, camera, view_tilts=tilts, **kw) for tilts in ("varied", "square")}
+    routes["shortest"] = plan(scene, camera, reversal_steps=0.0, reaim_steps=0.0, **kw)
+    routes["no re-aim cost"] = plan(scene, camera, reaim_steps=0.0, **kw)
+    routes["square, no re-aim cost"] = plan(scene, camera, view_tilts="square", reaim_steps=0.0, **kw)
     return scene, routes
 
 

@@ -126,12 +126,13 @@ def test_planner_claims_recheck(planned):
 
 def test_shots_near_the_lp_bound(planned):
     """The covering shots (with their sharp views, chosen with them) stay near the LP bound; the SfM
-    rule's linking shots come on top (and redundant shots go: counted back to find what the cover chose)."""
+    rule's linking shots and the edge views every plan takes come on top (and redundant shots go:
+    counted back to find what the cover chose)."""
     for name, (_scene, route, _ev) in planned.items():
         bound = route.metrics["lp_lower_bound_shots"]
         m = route.metrics
         covering = (m["selected_views"] + m["redundant_shots_dropped"] + m["trimmed_shots"] - m["linking_shots"]
-                    - m["repair_shots"] - m["sharp_view_shots"])
+                    - m["repair_shots"] - m["sharp_view_shots"] - m["edge_view_shots"])
         assert bound is not None and covering <= 1.3 * bound, (name, covering, bound)
         assert route.metrics["linking_shots"] <= covering, name
 

@@ -395,7 +395,10 @@ def test_default_plan_sees_every_face_squarely_where_it_can():
     imaged = np.isfinite(best)
     assert imaged.mean() > 0.99
     assert (best[imaged] <= 35.5).mean() >= 0.995, np.sort(best[imaged])[-10:]
-    slanted = plan(scene, camera, gsd=0.004, security=3.0, match=MatchRule(sharp_views=0, framed_views=0), fly="stop")
+    # The rule's own effect: edge views, which look at the eaves from above, see a few more
+    # roof points squarely (0.81 of them with edge views and without the rule).
+    slanted = plan(scene, camera, gsd=0.004, security=3.0, match=MatchRule(sharp_views=0, framed_views=0), fly="stop",
+                   edge_views=False)
     best0 = _best_incidence(slanted, mesh, points, normals)
     roof = normals[:, 2] > 0.5
     assert (best0[roof] <= 35.5).mean() < 0.8  # without the rule, much of the roof is seen at a slant
@@ -481,8 +484,10 @@ def test_lean_plan_under_the_samples_link_test_keeps_its_claims():
     from tests.helpers import MESHES
     scene = load_scene(MESHES / "gabled_house.obj")
     camera = get_camera("phantom4pro")
-    default = plan(scene, camera, gsd=0.004, security=3.0)
-    lean = plan(scene, camera, gsd=0.004, security=3.0, match=MatchRule(link_test="samples"))
+    # Both without edge views: the lean trim may not drop them, and with them it ended at 58
+    # photos against the default's 52.
+    default = plan(scene, camera, gsd=0.004, security=3.0, edge_views=False)
+    lean = plan(scene, camera, gsd=0.004, security=3.0, match=MatchRule(link_test="samples"), edge_views=False)
     assert default.metrics["trimmed_shots"] == 0 and lean.params["link_test"] == "samples"
     assert any(n.startswith("WARNING link test samples") for n in lean.extra["notes"])
     assert not any(n.startswith("WARNING link test") for n in default.extra["notes"])
@@ -537,6 +542,7 @@ def test_edge_views_join_every_wall_to_the_roof():
     and ray casts); without them no photo does so at any eave (the candidates look square at
     one face or 30 deg off it). The plan stays safe by an independent distance check and takes
     at most a quarter more photos."""
+    from coverplan.cli.summary import plan_summary
     from tests.independent import images, polyline_min_distance
     mesh = box(0, 0, 0, 20, 12, 8)
     scene = scene_from_meshes([mesh])
@@ -557,19 +563,25 @@ def test_edge_views_join_every_wall_to_the_roof():
             counts.append(int(np.logical_and(sees[0::2], sees[1::2]).sum()))
         return counts
 
-    route = plan(scene, camera, gsd=0.004, security=3.0, edge_views=True)
+    route = plan(scene, camera, gsd=0.004, security=3.0)  # the default
     assert route.params["edge_views"] is True
     assert polyline_min_distance(route.positions, [mesh], step=0.25) >= 3.0 - 1e-6
     assert min(bridging(route)) >= 1, bridging(route)
     without = plan(scene, camera, gsd=0.004, security=3.0, edge_views=False)
     assert max(bridging(without)) == 0, bridging(without)
     assert len(route.shots) <= 1.25 * len(without.shots), (len(route.shots), len(without.shots))
+    # The summary says how many photos are edge views, and names none without them.
+    assert route.metrics["edge_view_shots"] >= 4 and without.metrics["edge_view_shots"] == 0
+    line = next(row for row in plan_summary(route).splitlines() if row.startswith("edge views"))
+    assert line.split()[2:6] == [str(route.metrics["edge_view_shots"]), "of", "the", "shots"], line
+    assert "edge views" not in plan_summary(without)
 
 
 def test_photos_already_taken_stand_in_for_the_edge_views_they_repeat():
     """The box's required edge views: all of them again when photos already taken look the
     other way from the same places, none when the photos taken are those views moved 1 m
-    and turned 10 deg."""
+    and turned 10 deg; the thesis's rule leaves them out unless asked, the sfm rule takes them."""
+    from coverplan.planning.settings import PlanSettings
     from coverplan.shots.candidates import Candidates, edge_views, required_edge_views
     from coverplan.shots.reachability import scene_limits
     from coverplan.shots.surface import sample_surface
@@ -589,3 +601,6 @@ def test_photos_already_taken_stand_in_for_the_edge_views_they_repeat():
     rot = np.array([[np.cos(turn), -np.sin(turn), 0.0], [np.sin(turn), np.cos(turn), 0.0], [0.0, 0.0, 1.0]])
     alike = Candidates.looking(kept.positions + [0.0, 0.0, 1.0], kept.view_dirs @ rot.T, limits, source=0)
     assert len(required_edge_views(views, camera, 8.0, seen, taken=alike)) == 0
+    assert PlanSettings(gsd=0.004, security=3.0).edge_views is True
+    assert PlanSettings(gsd=0.004, security=3.0, rule="thesis").edge_views is False
+    assert PlanSettings(gsd=0.004, security=3.0, rule="thesis", edge_views=True).edge_views is True

@@ -36,7 +36,7 @@ def house(house_job):
 # each instead of 50 to keep the test under 3 minutes (145 s alone; with 10 or 12 neighbours
 # this draw splits in two models). COLMAP's 8,192 SIFT features a photo: with 4,096 it
 # rebuilt 97.2 % instead of 99.4 %, and the global mapper on those matches left the west face
-# at 17 %.
+# at 17 % (these on the 47-photo plan from before edge views became the default).
 FIELD_SEED = 0
 
 
@@ -89,7 +89,8 @@ def test_field_flight_of_the_default_plan_reconstructs(field, house):
     # The photos really were taken off the plan: a flight-wide bias of about a metre.
     assert sim.flown_offset_m["median"] > 0.3, sim.flown_offset_m
     registered, n_models, by = _colmap_verdict(out, scene, sim)
-    # Measured: 47 of 47 in one model, 99.4 % rebuilt.
+    # Measured: 52 of 52 in one model, 99.2 % rebuilt, the west façade 97.9 % (47 of 47, 99.4 %,
+    # before edge views became the default).
     assert n_models == 1 and registered >= 0.98 * len(route.shots), sim.table()
     assert by["pct"] >= 95.0 and min(by["by_class_pct"].values()) >= 90.0, sim.table()
     assert sim.reconstructable
@@ -98,8 +99,9 @@ def test_field_flight_of_the_default_plan_reconstructs(field, house):
 @pytest.mark.xdist_group("field")
 def test_without_the_pose_margin_the_field_flight_loses_more(field, house, tmp_path):
     """The same house planned with the rules as given (no pose margin), flown in the same field
-    draw: its weakest class loses more. Measured: 38 photos, 97.7 % rebuilt, the roof 95.4 %,
-    against 47 photos, 99.4 %."""
+    draw: its weakest class loses more. Measured: 47 photos, 97.7 % rebuilt, the roof 95.8 %,
+    against 52 photos, 99.2 %, the west façade 97.9 % (before edge views became the default:
+    38 photos, 97.7 %, the roof 95.4 %, against 47, 99.4 %)."""
     sim, out = field
     scene, _route = house
     bare = plan(scene, get_camera("phantom4pro"), gsd=0.004, security=3.0, pose_margin="none")
@@ -108,7 +110,7 @@ def test_without_the_pose_margin_the_field_flight_loses_more(field, house, tmp_p
                     spatial_neighbours=16)
     _registered, _n, by_margin = _colmap_verdict(out, scene, sim)
     _registered, _n, by_bare = _colmap_verdict(tmp_path / "bare", scene, lost)
-    assert min(by_bare["by_class_pct"].values()) < min(by_margin["by_class_pct"].values()) - 2.0, (
+    assert min(by_bare["by_class_pct"].values()) < min(by_margin["by_class_pct"].values()) - 1.0, (
         lost.table(), sim.table())
     assert by_bare["pct"] < by_margin["pct"], (lost.table(), sim.table())
 

@@ -268,7 +268,8 @@ def _plan_options(args) -> dict:
                 max_flight_min=args.max_flight_min, max_mission_items=items,
                 lp_time_limit=args.lp_time_limit, surface_classes=args.only, pose_margin=args.margin,
                 keep_out=tuple(args.keep_out), keep_in=tuple(args.keep_in), zone_margin=args.zone_margin,
-                fly=args.fly, view_tilts=args.view_tilts, edge_views=args.edge_views == "on",
+                fly=args.fly, view_tilts=args.view_tilts,
+                edge_views=None if args.edge_views is None else args.edge_views == "on",
                 reversal_steps=args.reversal_cost, reaim_steps=args.reaim_cost,
                 max_memory=None if args.max_memory_gb is None
                 else check_positive("--max-memory-gb", args.max_memory_gb) * 1e9)
@@ -500,10 +501,10 @@ def _add_planning_args(p):
                    help="varied (default): candidate views square-on to the surface and tilted off it; corners: "
                         "tilted only where the façade rings turn a corner; square: square-on only, so photos "
                         "along a wall share one heading (docs/flights.md, \"Lanes\")")
-    p.add_argument("--edge-views", choices=["on", "off"], default="off",
-                   help="on: a photo from the bisector of the two faces every frame width along each edge where "
-                        "the surface turns (a corner, an eave), seeing both faces alike (docs/reconstruction.md, "
-                        "\"Edge views\"); off (default): without them")
+    p.add_argument("--edge-views", choices=["on", "off"], default=None,
+                   help="on (default under --rule sfm): a photo from the bisector of the two faces every frame width "
+                        "along each edge where the surface turns (a corner, an eave), seeing both faces alike "
+                        "(docs/reconstruction.md, \"Edge views\"); off (default under --rule thesis): without them")
     p.add_argument("--reversal-cost", type=float, default=DEFAULT_REVERSAL_STEPS, metavar="STEPS",
                    help=f"how much path the tour gives up to avoid one reversal (a photo where the flight turns back "
                         f"by more than 90 deg and must stop), in typical steps between neighbouring photos (default "

@@ -11,6 +11,9 @@ def plan_summary(route) -> str:
         *([("existing photos", f"{m['existing']['photos']} ({route.params['existing_photos']['source']}) count "
                                f"toward the rules; alone they cover {m['existing']['coverage_pct']:.1f} % of the "
                                f"reachable surface; this flight adds {m['shots']} shots")] if m.get("existing") else []),
+        *([("edge views", f"{m['edge_view_shots']} of the shots look at a corner or an eave from the bisector of its "
+                          f"two faces, so SfM joins each face to the next (--edge-views off leaves them out)")]
+          if route.params.get("edge_views") else []),
         ("path length", f"{route.path_length:,.1f} m  (one orbit at the standoff: {m['orbit_length_m']:,.1f} m)"),
         *_flight_rows(route),
         ("coverage (planned)", f"{m['planned_coverage_pct']:.2f} % of the reachable surface"

@@ -94,10 +94,11 @@ class PlanSettings:
         square-on views, so photos along a wall share one heading; "corners" is "square"
         with the rings' tilted views kept where a ring turns a corner (steps toward lanes,
         docs/flights.md).
-    edge_views : bool
+    edge_views : bool or None
         Take a photo from the bisector of the two faces every frame width along each edge
         where the surface turns by 45 deg or more (``candidates.edge_views``), seeing both
-        faces alike, so that SfM joins each face to the next; False: without them.
+        faces alike, so that SfM joins each face to the next; False: without them. None (the
+        default): on under the ``"sfm"`` rule, off under the thesis's.
     reversal_steps : float
         How much path the tour gives up to avoid one reversal, a photo where the direction of
         travel turns by more than 90 deg and the drone must stop, in typical steps (the median
@@ -135,7 +136,7 @@ class PlanSettings:
     fly: str = "through"
     pass_rules: PassRules = field(default_factory=PassRules)
     view_tilts: str = "varied"
-    edge_views: bool = False
+    edge_views: bool | None = None
     reversal_steps: float = DEFAULT_REVERSAL_STEPS
     reaim_steps: float = DEFAULT_REAIM_STEPS
     existing: ExistingShots | None = None
@@ -159,6 +160,7 @@ class PlanSettings:
             raise ParameterError(f"min views must be a whole number >= 1, got {min_views!r}")
         put("min_views", int(min_views))
         put("match", (self.match or MatchRule()) if self.rule == "sfm" else None)
+        put("edge_views", self.rule == "sfm" if self.edge_views is None else bool(self.edge_views))
         if not 0 <= float(self.min_triangulation_deg) < 90:
             raise ParameterError(f"min triangulation angle must be in [0, 90) degrees, got {self.min_triangulation_deg!r}")
         if self.match and not float(self.min_triangulation_deg) < self.match.max_pair_deg:

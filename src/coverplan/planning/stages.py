@@ -561,6 +561,7 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
         "selected_views": int(len(chosen)),
         "sharp_view_shots": int(selection.sharpening + gaps.fine_sharp),
         "framed_view_shots": int(selection.framing),
+        "edge_view_shots": int(len(np.intersect1d(chosen, problem.required))),
         "linking_shots": int(max(picked - selection.covering - selection.sharpening - selection.framing, 0)
                              + gaps.check_links),
         "repair_shots": int(max(gaps.complete - picked - gaps.fine_sharp, 0)),
