@@ -245,3 +245,27 @@ def test_centre_weighted_metering_exposes_a_narrow_face_against_the_sky():
     assert w.sum() == pytest.approx(1.0) and w.reshape(cam.height, cam.width)[cam.height // 2, cam.width // 2] == w.max()
     with pytest.raises(Exception, match="unknown metering"):
         render.metering_weights(4, 6, "spot")
+
+
+def test_the_draws_table_names_the_worst_draws_class_and_gives_the_median(tmp_path):
+    """Three saved draws: the worst row is the draw with the least surface, with its class
+    named; the median row gives the median of the draws' least classes, without a name."""
+    import json
+
+    from coverplan.sfm.simulate import Simulation
+    draws = [{"photos": 10, "registered": r, "models": 1, "surface_0.2_pct": s, "least_class": c,
+              "least_class_pct": p, "reconstructable": s >= 95.0, "seed": k}
+             for k, (r, s, c, p) in enumerate([(10, 99.4, "roof", 98.1), (10, 98.9, "facade north", 94.7),
+                                               (9, 99.0, "facade west", 96.0)])]
+    saved = {"photos": 10, "registered": 10, "registered_any": 10, "models": 1, "points": 100,
+             "reprojection_error_px": 0.5, "centre_error_m": {"median": 0.1, "max": 0.2}, "surface": {},
+             "photo_width_px": 640, "seconds": {}, "shot_registered": [True] * 10, "draws": draws, "worst_draw": 1}
+    (tmp_path / "simulation.json").write_text(json.dumps(saved))
+    lines = Simulation.load(tmp_path / "simulation.json").draws_table().splitlines()
+    cells = [[c.strip() for c in line.split("  ") if c.strip()] for line in lines]
+    assert cells[1] == ["worst", "10/10", "1", "98.9 %", "facade north 94.7 %", "yes"]
+    assert cells[2] == ["median", "10/10", "1", "99.0 %", "96.0 %", "yes"]
+    assert [c[0] for c in cells[3:]] == ["seed 0", "seed 1", "seed 2"]
+    # the column lines up under its heading in every row
+    column = lines[0].index("least class")
+    assert lines[1].index("facade north") == lines[2].index("96.0 %") == column

@@ -156,7 +156,7 @@ class Simulation:
         """Worst and median of the draws, then each draw."""
         def row(label, d):
             return (label, f"{d['registered']}/{d['photos']}", f"{d['models']}", f"{d['surface_0.2_pct']:.1f} %",
-                    f"{d['least_class']} {d['least_class_pct']:.1f} %", "yes" if d["reconstructable"] else "no")
+                    f"{d['least_class']} {d['least_class_pct']:.1f} %".strip(), "yes" if d["reconstructable"] else "no")
         med = {"photos": self.photos,
                "registered": int(np.median([d["registered"] for d in self.draws])),
                "models": int(np.median([d["models"] for d in self.draws])),
