@@ -360,7 +360,7 @@ def close_gaps(problem: Problem, selection: Selection, setup: Setup, progress: P
     with progress.stage("fine check and repair"):
         passing = settings.pass_rules.max_photo_offset_m if settings.fly == "through" else 0.0
         closer = GapCloser(cover, settings.min_views, setup.min_triangulation_deg, setup.max_pair_deg, setup.standoff,
-                           setup.extra_clearance, problem.fine_job.result(), sight_radius=passing)
+                           setup.extra_clearance, problem.fine_job.result(), sight_m=passing)
         check = closer.check(chosen)
         history = [check.coverage_pct]
         while check.coverage_pct < TARGET_PCT and len(history) <= MAX_ROUNDS and closer.extend(check):

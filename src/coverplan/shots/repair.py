@@ -200,12 +200,12 @@ class GapCloser:
     """Fine check of a selection, and the new samples and candidates for what it misses."""
 
     def __init__(self, problem: CoverProblem, min_views: int, min_triangulation_deg: float, max_pair_deg: float | None,
-                 distance: float, margin: float, fine: SurfaceSamples, sight_radius: float = 0.0):
+                 distance: float, margin: float, fine: SurfaceSamples, sight_m: float = 0.0):
         """``fine``: the check samples (``check_samples`` at ``planner_check_spacing``);
-        ``sight_radius``: how far off its planned point a photo may be taken (flying through)."""
+        ``sight_m``: how far off its planned point a photo may be taken (flying through)."""
         self.p = problem
         self.min_views, self.min_triangulation_deg, self.max_pair_deg = min_views, min_triangulation_deg, max_pair_deg
-        self.distance, self.margin, self.sight_radius = distance, margin, sight_radius
+        self.distance, self.margin, self.sight_m = distance, margin, sight_m
         self.fine = fine
         self.ball_m = CHECK_BALL * self.fine.spacing
         self._tree = cKDTree(self.fine.points)
@@ -269,7 +269,7 @@ class GapCloser:
         # reveal held at the plan and was blocked where the drone took it (LOD3).
         k = np.flatnonzero(firm)
         seen = seen_from_around(self.p.scene.rays, points[pt[k]] + normals[pt[k]] * offset, c.positions[cam[k]],
-                                self.sight_radius)
+                                self.sight_m)
         firm[k[~seen]] = False
         return cands[cam], pt, firm
 
@@ -375,7 +375,7 @@ class GapCloser:
         self.column[todo] = len(self.p.samples) + np.arange(len(todo))
         # Judged here as the check judges them, or repair would pick views the check rejects.
         self.p.add_samples(self.fine.subset(todo), probe_shrink=CHECK_MARGIN, ball_m=self.ball_m,
-                           sight_m=self.sight_radius)
+                           sight_m=self.sight_m)
 
     def sharpen(self, chosen: np.ndarray, views: int, kinds=(OPPOSED_TERRACE,)) -> np.ndarray:
         """``add_sharp_views`` judged on the check samples of the given surface classes (default
