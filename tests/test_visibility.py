@@ -57,8 +57,8 @@ def test_ball_views_hold_around_each_sample():
 def test_sight_holds_wherever_the_photo_is_taken_in_passing():
     """A sample just beside a wall's end, cameras behind it: a sight line granted with the
     0.1 m a photo taken in passing may stand off its point stays clear, by the independent
-    segment test, from random points within 0.1 m of the camera; the lines clear only at the
-    camera itself are refused, and some are."""
+    segment test, from every 10 deg of the 0.1 m rim across the line of sight round the camera;
+    the lines clear only at the camera itself are refused, and some are."""
     rng = np.random.default_rng(3)
     r = 0.1
     # A wall ending at x = 4, turned 35 deg about y so its end slants across every frame.

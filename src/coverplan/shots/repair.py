@@ -91,6 +91,7 @@ class CoverProblem:
         with ``ball_m`` every view must hold around the sample too (``imaging_pairs``), with
         ``sight_m`` its sight from that far off the camera (``seen_from_around``)."""
         probe = cands.source == PROBE
+        offset = self.scene.epsilon * 4
         out = []
         for mask, shrink in ((~probe, SHRINK), (probe, probe_shrink)):
             idx = np.flatnonzero(mask)
@@ -99,10 +100,9 @@ class CoverProblem:
             c, p, r = imaging_pairs(cands.positions[idx], cands.heading_deg[idx], cands.pitch_deg[idx],
                                     self.camera, samples.points, samples.normals, self.scene.rays,
                                     max_range=self.limits.d_opt, max_incidence_deg=self.limits.max_incidence_deg,
-                                    shrink=shrink, ball_m=ball_m, offset=self.scene.epsilon * 4,
-                                    progress=progress)
+                                    shrink=shrink, ball_m=ball_m, offset=offset, progress=progress)
             if sight_m > 0:
-                seen = seen_from_around(self.scene.rays, samples.points[p] + samples.normals[p] * self.scene.epsilon * 4,
+                seen = seen_from_around(self.scene.rays, samples.points[p] + samples.normals[p] * offset,
                                         cands.positions[idx[c]], sight_m)
                 c, p, r = c[seen], p[seen], r[seen]
             out.append((idx[c], p, r))
@@ -227,8 +227,20 @@ class GapCloser:
         chosen = np.asarray(chosen, dtype=np.int64)
         new = np.setdiff1d(chosen, self._checked)
         if len(new):
-            cam, pt, firm = self._judge(new)
-            self._views = [np.concatenate([self._views[0], cam]), np.concatenate([self._views[1], pt]),
+            c = self.p.cands.subset(new)
+            offset = self.p.scene.epsilon * 4
+            # firm: the view holds with CHECK_MARGIN off the frustum, range and incidence, for
+            # all points within ``ball_m`` of the sample
+            cam, pt, _, firm = imaging_pairs_firm(
+                c.positions, c.heading_deg, c.pitch_deg, self.p.camera, self.fine.points, self.fine.normals,
+                self.p.scene.rays, max_range=self.p.limits.d_opt, max_incidence_deg=self.p.limits.max_incidence_deg,
+                firm_shrink=CHECK_MARGIN, firm_ball_m=self.ball_m, offset=offset, point_tree=self._tree)
+            # and its sight from wherever in passing the photo may be taken: a view grazing past
+            # a window reveal held at the plan and was blocked where the drone took it (LOD3)
+            k = np.flatnonzero(firm)
+            firm[k] = seen_from_around(self.p.scene.rays, self.fine.points[pt[k]] + self.fine.normals[pt[k]] * offset,
+                                       c.positions[cam[k]], self.sight_m)
+            self._views = [np.concatenate([self._views[0], new[cam]]), np.concatenate([self._views[1], pt]),
                            np.concatenate([self._views[2], firm])]
             self._checked = np.union1d(self._checked, new)
         who, pt, firm = self._views
@@ -252,26 +264,6 @@ class GapCloser:
             self.reach_known[unknown] = True
         self.reason[self.reachable] = ""  # a shot added later may image what the probes missed
         return FineCheck(self.fine, covered, self.reachable.copy(), self.reason.copy())
-
-    def _judge(self, cands: np.ndarray):
-        """Candidates ``cands`` on the check samples: (candidate, sample, firm) per view. Firm:
-        the view holds with CHECK_MARGIN off the frustum, range and incidence for all points
-        within ``ball_m`` of the sample, and its sight from wherever in passing the photo may
-        be taken."""
-        c = self.p.cands.subset(cands)
-        offset = self.p.scene.epsilon * 4
-        points, normals = self.fine.points, self.fine.normals
-        cam, pt, _, firm = imaging_pairs_firm(
-            c.positions, c.heading_deg, c.pitch_deg, self.p.camera, points, normals, self.p.scene.rays,
-            max_range=self.p.limits.d_opt, max_incidence_deg=self.p.limits.max_incidence_deg, firm_shrink=CHECK_MARGIN,
-            firm_ball_m=self.ball_m, offset=offset, point_tree=self._tree)
-        # A photo taken in passing stands off its planned point: a view grazing past a window
-        # reveal held at the plan and was blocked where the drone took it (LOD3).
-        k = np.flatnonzero(firm)
-        seen = seen_from_around(self.p.scene.rays, points[pt[k]] + normals[pt[k]] * offset, c.positions[cam[k]],
-                                self.sight_m)
-        firm[k[~seen]] = False
-        return cands[cam], pt, firm
 
     def kept(self, check: FineCheck, chosen: np.ndarray) -> FineCheck:
         """``check`` for a subset ``chosen`` of its shots that covers every sample it covered

@@ -132,8 +132,8 @@ def clear_around(rays, points, normals, cameras, radius: float, skip: float) -> 
 def seen_from_around(rays, starts, cameras, radius: float) -> np.ndarray:
     """Per (start, camera): whether the segment from ``start`` stays clear to every point
     within ``radius`` of the camera across its line of sight, judged at the four corners of
-    the square circumscribing that disc: an edge that blocks some point of the disc blocks a
-    corner.
+    the square circumscribing that disc: a straight edge that blocks some point of the disc
+    blocks a corner (a post thinner than the disc could slip between them).
 
     Parameters
     ----------
