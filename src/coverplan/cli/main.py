@@ -234,7 +234,7 @@ def cmd_plan(args) -> int:
             raise ParameterError(f"{shortfall} (--strict)")
     # --start is in the input models' coordinates, like the meshes: move it with them.
     start = None if args.start is None else scene.to_local(args.start)
-    options = _plan_options(args)
+    options = _plan_options(args, formats)
     if args.existing:
         with progress.stage("existing photos"):
             options["existing"] = read_existing(args.existing, scene, camera, args.gsd, args.security, progress)
@@ -255,10 +255,11 @@ def cmd_plan(args) -> int:
     return 0
 
 
-def _plan_options(args) -> dict:
-    """planner.plan's keyword arguments from the planning flags ``plan`` and ``batch`` share."""
+def _plan_options(args, formats: list[str]) -> dict:
+    """planner.plan's keyword arguments from the planning flags ``plan`` and ``batch`` share;
+    ``formats``: the exports asked (``parse_formats(args.export)``)."""
     items = args.max_mission_items
-    if items is None and "qgc" in parse_formats(args.export) and args.firmware == "px4":
+    if items is None and "qgc" in formats and args.firmware == "px4":
         items = PX4_MISSION_ITEMS  # a longer flight would be refused at export
     return dict(gsd=args.gsd, security=args.security, min_views=args.min_views,
                 min_triangulation_deg=args.min_triangulation_deg, rule=args.rule, match=_match_rule(args),
@@ -307,8 +308,8 @@ def cmd_batch(args) -> int:
         raise ParameterError(f"--merge-obstacles-within must be >= 0, got {args.merge_obstacles_within}")
     if args.buildings and (args.all or args.bbox or args.where):
         raise ParameterError("--buildings names the buildings; it does not combine with --all, --bbox or --where")
-    settings = BatchSettings(camera=_camera(args), plan_options=_plan_options(args),
-                             exports=parse_formats(args.export),
+    formats = parse_formats(args.export)
+    settings = BatchSettings(camera=_camera(args), plan_options=_plan_options(args, formats), exports=formats,
                              export_options=_export_options(args), report=args.report,
                              merge_obstacles_within=args.merge_obstacles_within,
                              context_radius=args.context_radius, lod=args.lod, terrain=args.terrain)
