@@ -35,7 +35,7 @@ from coverplan import evaluate, get_camera, load_scene, plan
 from coverplan.evaluation import photo_poses
 from coverplan.progress import Progress
 from coverplan.sfm.simulate import simulate
-from coverplan.shots.reconstructability import LINK_TESTS, MatchRule, shot_links
+from coverplan.shots.reconstructability import LINK_TESTS, MatchRule, following_pairs, shot_links
 from plan_scenes import SCENES
 
 CAMERA, GSD, SECURITY = "phantom4pro", 0.004, 3.0  # as benchmarks/reconstruction.py
@@ -106,8 +106,7 @@ def likely_links(route, scene, rule: dict = LIKELY) -> np.ndarray:
     cam, pt, ray = cam[order], pt[order], ray[order]
     count = np.bincount(pt, minlength=len(ev.samples))
     later = (np.cumsum(count))[pt] - np.arange(len(pt)) - 1  # the sample's views after this one
-    a = np.repeat(np.arange(len(pt)), later)
-    b = a + 1 + (np.arange(len(a)) - np.repeat(np.cumsum(later) - later, later))
+    a, b = following_pairs(np.arange(len(pt)), later)
     meet = np.einsum("ij,ij->i", ray[a], ray[b]) >= np.cos(np.radians(rule["pair_deg"]))
     shared = sp.coo_matrix((np.ones(int(meet.sum())), (cam[a[meet]], cam[b[meet]])), shape=(n, n)).toarray()
     shared += shared.T

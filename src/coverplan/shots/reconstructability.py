@@ -303,6 +303,26 @@ def _face_links(vis: sp.csr_matrix, rows: np.ndarray, listed: np.ndarray, size: 
 PAIRS_PER_CHUNK = 4_000_000  # view pairs judged at once by the "samples" link test
 
 
+def following_pairs(entries: np.ndarray, later: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each entry paired with the ``later`` entries that follow it.
+
+    Parameters
+    ----------
+    entries : (k,) int
+        Positions in an array grouped by sample (one sample's views contiguous).
+    later : (k,) int
+        How many entries of the same sample follow each one.
+
+    Returns
+    -------
+    a, b : (m,) int
+        ``a[i] < b[i]``: every unordered pair of one sample's entries once, for the entries given.
+    """
+    a = np.repeat(entries, later)
+    b = a + 1 + (np.arange(len(a)) - np.repeat(np.cumsum(later) - later, later))
+    return a, b
+
+
 def _sample_links(vis: sp.csr_matrix, listed: np.ndarray, size: np.ndarray, positions: np.ndarray,
                   points: np.ndarray, normals: np.ndarray | None, rule: MatchRule):
     """The pairs (r, c), r < c, at least one of them listed, that pass the "samples" link test
@@ -329,10 +349,7 @@ def _sample_links(vis: sp.csr_matrix, listed: np.ndarray, size: np.ndarray, posi
     lo = 0
     while lo < len(samp):
         hi = max(int(np.searchsorted(work, (work[lo - 1] if lo else 0) + PAIRS_PER_CHUNK, "right")), lo + 1)
-        e = np.arange(lo, hi)
-        k = later[e]
-        a = np.repeat(e, k)
-        b = a + 1 + (np.arange(len(a)) - np.repeat(np.cumsum(k) - k, k))
+        a, b = following_pairs(np.arange(lo, hi), later[lo:hi])
         ca, cb = cam[a], cam[b]
         keep = (listed[ca] | listed[cb]) & (np.einsum("ij,ij->i", ray[a], ray[b]) >= cos_pair)
         found.append((ca[keep], cb[keep]))
