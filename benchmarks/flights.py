@@ -40,8 +40,21 @@ from plan_scenes import SCENES
 from structure_scan import scan_with_roof_grid, structure_scan
 
 
-def shot_set(route) -> np.ndarray:
-    return np.unique(np.round(np.column_stack([route.positions, route.heading_deg])[route.shot], 6), axis=0)
+def same_shots(a, b, tol: float = 1e-6) -> bool:
+    """Whether two routes photograph from the same poses, in any order: every shot of each has
+    one of the other within ``tol`` in position (m) and in heading and pitch (as unit vectors).
+    Rounding to a fixed number of decimals is not enough: a heading worked out again after the
+    split can differ in its last bits and round the other way."""
+    from scipy.spatial import cKDTree
+
+    def poses(route):
+        h, p = np.radians(route.heading_deg), np.radians(route.pitch_deg)
+        return np.column_stack([route.positions, np.sin(h), np.cos(h), np.sin(p)])[route.shot]
+
+    pa, pb = poses(a), poses(b)
+    if len(pa) != len(pb):
+        return False
+    return all(np.isfinite(cKDTree(y).query(x, distance_upper_bound=tol)[0]).all() for x, y in ((pa, pb), (pb, pa)))
 
 
 def split_rows(mesh: str, gsd: float, security: float, limits) -> list[dict]:
@@ -62,7 +75,7 @@ def split_rows(mesh: str, gsd: float, security: float, limits) -> list[dict]:
         rows.append({"limit_min": limit, "flights": route.n_flights, "shots": int(route.shot.sum()),
                      "longest_min": max(minutes), "total_min": sum(minutes), "path_m": route.path_length,
                      "path_ratio": route.path_length / single.path_length, "home": home,
-                     "same_shots": bool(np.array_equal(shot_set(route), shot_set(single))),
+                     "same_shots": same_shots(route, single),
                      "safe": evaluate(route, scene).safe, "plan_s": route.metrics["planning_time_s"],
                      "split_s": route.metrics["stage_seconds"].get("battery flights", 0.0)})
         print(f"  split at {limit} min", flush=True)
