@@ -177,6 +177,21 @@ def test_claim_holds_beside_a_block_flush_against_a_wall():
     assert (edge[:, 2] < 1.5).all()
 
 
+def test_a_plan_whose_lp_ran_out_of_time_warns():
+    """The LP's limit is wall time: past it the shots are chosen without it and differ with
+    the machine's speed (the courtyard at 1.5 mm/px took other shots under load at the old
+    20 s default). The plan says so instead of handing out a machine-dependent route silently."""
+    scene = scene_from_meshes([box(0, 0, 0, 6, 4, 5)])
+    cam = get_camera("phantom4pro")
+    cut = plan(scene, cam, gsd=0.005, security=3.0, lp_time_limit=1e-9)
+    assert any(n.startswith("WARNING view selection: the LP stopped at its time limit")
+               and "--lp-time-limit" in n for n in cut.extra["notes"])
+    assert "lp_lower_bound_shots" not in cut.metrics
+    full = plan(scene, cam, gsd=0.005, security=3.0)
+    assert not any("the LP stopped" in n for n in full.extra["notes"])
+    assert full.metrics["lp_lower_bound_shots"] > 0
+
+
 def test_walls_seen_only_between_obstacles():
     # A scene the property test drew: a slab through the roof, a block floating over the east
     # wall's foot, a shed 7.6 m off the north wall (under twice the 3.86 m security distance).

@@ -70,3 +70,22 @@ def test_every_sample_gets_a_wanted_view_on_random_problems():
         # the cover's own rule holds as it does without the wanted views
         assert (joint.satisfied | ~plain.satisfied).all()
         assert joint.lp_bound >= plain.lp_bound - 1e-6
+
+
+def test_an_lp_out_of_time_is_dropped_and_says_so():
+    # The LP's time limit is wall time: an LP that reaches it leaves the greedy without its
+    # guide, so the shots depend on the machine's speed. The selection must say so (the plan
+    # warns on it) and still cover what the plain greedy covers.
+    rng = np.random.default_rng(4)
+    vis = sp.random(400, 600, density=0.05, random_state=rng, format="csr")
+    vis.data[:] = 1.0
+    vis.sort_indices()
+    rays = np.array([_ray(x) for x in rng.uniform(0, 40, vis.nnz)])
+    solved = select_views(vis, rays, 3, 5.0, max_pair_deg=35.0)
+    assert not solved.lp_stopped and solved.lp_bound is not None
+    out_of_time = select_views(vis, rays, 3, 5.0, max_pair_deg=35.0, lp_time_limit=1e-9)
+    assert out_of_time.lp_stopped and out_of_time.lp_bound is None
+    greedy = select_views(vis, rays, 3, 5.0, max_pair_deg=35.0, lp_time_limit=0)
+    assert not greedy.lp_stopped  # not asked for is not stopped
+    assert np.array_equal(out_of_time.satisfied, greedy.satisfied)
+    assert np.array_equal(np.sort(out_of_time.chosen), np.sort(greedy.chosen))

@@ -23,7 +23,7 @@ from coverplan.io.load import _check_geodetic_origin, load_scene
 from coverplan.io.qgc import PX4_MISSION_ITEMS
 from coverplan.io.zones import read_zones
 from coverplan.job import run_job, write_pictures
-from coverplan.planning.settings import DEFAULT_CEILING_M
+from coverplan.planning.settings import DEFAULT_CEILING_M, LP_TIME_LIMIT_S
 from coverplan.progress import Progress
 from coverplan.sfm.check import check as check_photos
 from coverplan.sfm.colmap import GLOBAL_MAPPING_ABOVE, MAX_FEATURES, SPATIAL_NEIGHBOURS
@@ -561,8 +561,9 @@ def _add_planning_args(p):
                    help="cruise speed between waypoints (default: the drone's, else 5)")
     p.add_argument("--shot-seconds", type=float, default=None,
                    help="hover time per photo (default: the drone's photo interval, at least 1 s)")
-    p.add_argument("--lp-time-limit", type=float, default=20.0, metavar="S",
-                   help="time for the LP that guides view selection and bounds it (0: plain greedy)")
+    p.add_argument("--lp-time-limit", type=float, default=LP_TIME_LIMIT_S, metavar="S",
+                   help=f"time for the LP that guides view selection and bounds it (default {LP_TIME_LIMIT_S:g}; "
+                        "0: plain greedy; an LP that runs out of time is dropped, with a warning)")
     p.add_argument("--only", nargs="+", default=None, metavar="CLASS",
                    choices=["facade", "roof", "terrace", "opposed_terrace"],
                    help="cover only these surfaces (facade, roof, terrace, opposed_terrace)")

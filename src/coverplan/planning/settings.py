@@ -15,6 +15,7 @@ from coverplan.flight.tour import DEFAULT_REAIM_STEPS, DEFAULT_REVERSAL_STEPS
 from coverplan.shots.candidates import VIEW_TILTS
 from coverplan.shots.existing import ExistingShots
 from coverplan.shots.reconstructability import MatchRule
+from coverplan.shots.selection import LP_TIME_LIMIT_S
 from coverplan.world.zones import Zones
 
 RULES = ("sfm", "thesis")
@@ -62,7 +63,8 @@ class PlanSettings:
     lattice_spacing_m : float or None
         Flight-graph lattice spacing; None: chosen to keep the lattice within its node cap.
     lp_time_limit : float
-        Seconds the view-selection LP may take.
+        Seconds the view-selection LP may take (0: none, plain greedy). An LP that reaches it
+        is dropped and the plan warns: the shots then depend on the machine's speed.
     max_memory : float or None
         Bytes the plan may use; None: 80 % of this machine's RAM.
     surface_classes : tuple of str or None
@@ -126,7 +128,7 @@ class PlanSettings:
     max_flight_min: float | None = None
     max_mission_items: int | None = None
     lattice_spacing_m: float | None = None
-    lp_time_limit: float = 20.0
+    lp_time_limit: float = LP_TIME_LIMIT_S
     max_memory: float | None = None
     surface_classes: tuple | None = field(default=None)
     pose_margin: str = "field"

@@ -289,6 +289,7 @@ class Selection:
     sharpening: int
     framing: int
     lp_bound: float | None
+    lp_stopped: bool  # the LP reached its time limit (selection.Selection.lp_stopped)
 
 
 def select_shots(problem: Problem, setup: Setup, progress: Progress) -> Selection:
@@ -327,7 +328,7 @@ def select_shots(problem: Problem, setup: Setup, progress: Progress) -> Selectio
         reason = problem.reach.reason
         raise PlanningError("no safe viewpoint can image any part of the target: "
                             + (reason[0] if len(reason) and reason[0] else "check the security distance and GSD"))
-    return Selection(chosen, covering, sharpening, framing, selection.lp_bound)
+    return Selection(chosen, covering, sharpening, framing, selection.lp_bound, selection.lp_stopped)
 
 
 @dataclass(frozen=True)
@@ -521,6 +522,10 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
         notes.append(f"WARNING view tilts {settings.view_tilts}: with fewer tilted views the links across corners "
                      "are weaker than the link test counts (a field simulate of the gabled house split in two); "
                      "run coverplan simulate --conditions field before flying it")
+    if selection.lp_stopped:
+        notes.append(f"WARNING view selection: the LP stopped at its time limit ({settings.lp_time_limit:g} s), so the "
+                     "shots were chosen without it and can differ from run to run with the machine's speed; "
+                     "give it more time (--lp-time-limit)")
     if lean(setup.match):
         notes.append("WARNING link test samples: a lean plan, flown under field conditions three times only on the gabled "
                      "house and the chapel; run coverplan simulate --conditions field before flying it")

@@ -26,21 +26,30 @@ _STORED = 6  # view rays remembered per sample for the pair test
 _SEED = 0.7  # LP values from which a candidate is taken before the greedy starts
 
 
+# The view-selection LP's default time. Past it the shots are chosen greedily without the LP,
+# which makes the plan depend on the machine's speed: the courtyard at 1.5 mm/px (8,698
+# candidates) needs 8 s on a loaded 2-core machine, so 20 s, the earlier default, was reached
+# on slower or busier ones and gave other shots.
+LP_TIME_LIMIT_S = 120.0
+
+
 @dataclass
 class Selection:
     chosen: np.ndarray  # candidate indices, in the order picked
     views: np.ndarray  # per sample
     satisfied: np.ndarray  # per sample: enough views and a wide pair
     lp_bound: float | None = None  # optimum of the LP relaxation (None if not solved)
+    lp_stopped: bool = False  # the LP reached its time limit: the greedy went without its guide
 
 
 def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_triangulation_deg: float,
-                 lp_time_limit: float = 20.0, progress=None, max_pair_deg: float | None = None,
+                 lp_time_limit: float = LP_TIME_LIMIT_S, progress=None, max_pair_deg: float | None = None,
                  preset=None, wanted: sp.csr_matrix | None = None) -> Selection:
     """Pick candidates (rows of ``vis``) covering the samples (columns).
 
     ``rays`` holds, in the order of ``vis.data``, the unit vector from sample to camera.
-    ``lp_time_limit`` <= 0 skips the LP (plain greedy). With ``max_pair_deg`` the pair that
+    ``lp_time_limit`` <= 0 skips the LP (plain greedy); an LP that reaches it is dropped too
+    (``Selection.lp_stopped``), so the shots then depend on the machine's speed. With ``max_pair_deg`` the pair that
     covers a sample must also be at most that wide (views SfM can match), not only wide enough.
     ``preset`` candidates are taken first and kept (the result starts with them).
     ``wanted`` (candidates x samples, 1 where the view is of a kind a sample wants, such as a
@@ -52,13 +61,13 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_trian
     vis.sort_indices()
     n_cand, n_samp = vis.shape
     coverable = np.flatnonzero(np.bincount(vis.indices, minlength=n_samp) >= min_views)
-    bound, x = (None, np.zeros(n_cand))
+    bound, x, stopped = (None, np.zeros(n_cand), False)
     if wanted is not None:
         wanted = sp.csr_matrix(wanted)
         w_need = (np.asarray(wanted.sum(axis=0)).ravel() > 0).astype(np.int64)
         w_have = np.zeros(n_samp, dtype=np.int64)
     if lp_time_limit > 0 and len(coverable):
-        bound, x_lp = lp_relaxation(vis, coverable, min_views, lp_time_limit, wanted=wanted)
+        bound, x_lp, stopped = lp_relaxation(vis, coverable, min_views, lp_time_limit, wanted=wanted)
         if x_lp is not None:
             x = x_lp
     indptr, indices = vis.indptr, vis.indices
@@ -172,7 +181,7 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_trian
     chosen_arr = prune_redundant(vis, rays, np.array(chosen, dtype=np.int64), min_views, min_triangulation_deg,
                                  max_pair_deg, fixed=len(fixed), wanted=wanted)
     views, satisfied = coverage_state(vis, rays, chosen_arr, min_views, min_triangulation_deg, max_pair_deg)
-    return Selection(chosen_arr, views, satisfied, bound)
+    return Selection(chosen_arr, views, satisfied, bound, stopped)
 
 
 def complete_pairs(vis: sp.csr_matrix, rays: np.ndarray, chosen, min_views: int, min_triangulation_deg: float,
@@ -224,8 +233,9 @@ def complete_pairs(vis: sp.csr_matrix, rays: np.ndarray, chosen, min_views: int,
     return added
 
 
-def lp_relaxation(vis: sp.csr_matrix, samples, min_views: int, time_limit: float = 20.0, wanted=None):
-    """LP relaxation of the multi-cover over the given samples: (optimum, x) or (None, None).
+def lp_relaxation(vis: sp.csr_matrix, samples, min_views: int, time_limit: float = LP_TIME_LIMIT_S, wanted=None):
+    """LP relaxation of the multi-cover over the given samples: (optimum, x, False), or
+    (None, None, stopped) when it was not solved, ``stopped`` when for want of time.
 
     min sum x subject to, for each sample, the x of the candidates imaging it summing to at
     least ``min_views``, with 0 <= x <= 1; with ``wanted`` (candidates x samples), also the x of
@@ -237,7 +247,7 @@ def lp_relaxation(vis: sp.csr_matrix, samples, min_views: int, time_limit: float
     samples = np.asarray(samples, dtype=np.int64)
     n_cand = vis.shape[0]
     if len(samples) == 0:
-        return 0.0, np.zeros(n_cand)
+        return 0.0, np.zeros(n_cand), False
     a = vis[:, samples].T.tocsr().astype(float)
     rhs = np.full(a.shape[0], float(min_views))
     if wanted is not None:
@@ -259,7 +269,7 @@ def lp_relaxation(vis: sp.csr_matrix, samples, min_views: int, time_limit: float
     res = linprog(np.ones(a.shape[1]), A_ub=-a, b_ub=-rhs,
                   bounds=(0, 1), method="highs-ipm", options={"time_limit": float(time_limit)})
     if res.status != 0 or res.x is None:
-        return None, None
+        return None, None, res.status == 1  # 1: HiGHS stopped at its time (or iteration) limit
     x = np.zeros(n_cand)
     x[used] = np.clip(res.x, 0.0, 1.0)
-    return float(res.fun), x
+    return float(res.fun), x, False
