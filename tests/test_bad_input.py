@@ -198,6 +198,8 @@ ROWS = {
                                            "--firmware ardupilot"]),
     "mission item limit below 8": (lambda t: ["plan", L, *PLAN, "--max-mission-items", "5", "-o", t / "r.json"],
                                    ["max mission items must be a whole number >= 8, got 5"]),
+    "negative LP time limit": (lambda t: ["plan", L, *PLAN, "--lp-time-limit", "-5", "-o", t / "r.json"],
+                               ["LP time limit (--lp-time-limit) must be >= 0 seconds", "got -5"]),
     "WPML export without a drone": (lambda t: ["export", _long_route(t), "--format", "wpml", "--crs", "EPSG:25832"],
                                     ["needs the drone", "--drone"]),
     "WPML for a drone that flies no WPML": (lambda t: ["export", _long_route(t, 3), "--format", "wpml", "--crs",

@@ -176,6 +176,9 @@ class PlanSettings:
             put("spacing", check_positive("spacing", self.spacing))
         if self.max_flight_min is not None:
             put("max_flight_min", check_positive("max flight minutes", self.max_flight_min))
+        if not (np.isfinite(self.lp_time_limit) and self.lp_time_limit >= 0):
+            raise ParameterError(f"the LP time limit (--lp-time-limit) must be >= 0 seconds (0: no LP), "
+                                 f"got {self.lp_time_limit!r}")
         if self.max_mission_items is not None:
             items = self.max_mission_items
             if isinstance(items, bool) or not (np.isfinite(items) and int(items) == items and items >= 8):
