@@ -49,8 +49,9 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_trian
 
     ``rays`` holds, in the order of ``vis.data``, the unit vector from sample to camera.
     ``lp_time_limit`` <= 0 skips the LP (plain greedy); an LP that reaches it is dropped too
-    (``Selection.lp_stopped``), so the shots then depend on the machine's speed. With ``max_pair_deg`` the pair that
-    covers a sample must also be at most that wide (views SfM can match), not only wide enough.
+    (``Selection.lp_stopped``), so the shots then depend on the machine's speed. With
+    ``max_pair_deg`` the pair that covers a sample must also be at most that wide (views SfM
+    can match), not only wide enough.
     ``preset`` candidates are taken first and kept (the result starts with them).
     ``wanted`` (candidates x samples, 1 where the view is of a kind a sample wants, such as a
     sharp view): every sample some candidate offers one to gets one, asked of the LP and counted
