@@ -208,11 +208,12 @@ def _two_opt_turns(t, dist, positions, near, reversal_m) -> tuple[np.ndarray, bo
     def moves(t, lo, hi):
         where = np.empty(n, dtype=int)
         where[t] = np.arange(n)
+        turn = cost(np.roll(t, 1), t, np.roll(t, -1))  # the tour's turn at each position
         i = np.arange(lo, hi)[:, None]
         a0, a, b, b1 = t[(i - 2) % n], t[i - 1], t[i], t[(i + 1) % n]
         k = where[near[a[:, 0]]]
         c0, c, d, d1 = t[(k - 1) % n], t[k], t[(k + 1) % n], t[(k + 2) % n]
-        old = dist[a, b] + dist[c, d] + cost(a0, a, b) + cost(a, b, b1) + cost(c0, c, d) + cost(c, d, d1)
+        old = dist[a, b] + dist[c, d] + turn[i - 1] + turn[i] + turn[k] + turn[(k + 1) % n]
         new = dist[a, c] + dist[b, d] + cost(a0, a, c) + cost(a, c, c0) + cost(b1, b, d) + cost(b, d, d1)
         delta = np.where((k <= i) | (k - i >= n - 2), np.inf, new - old)
         best = np.argmin(delta, axis=1)
@@ -236,18 +237,19 @@ def _or_opt_turns(t, dist, positions, near, reversal_m, max_segment: int = 3) ->
     def moves(t, lo, hi, length):
         where = np.empty(n, dtype=int)
         where[t] = np.arange(n)
+        turn = cost(np.roll(t, 1), t, np.roll(t, -1))  # the tour's turn at each position
         i = np.arange(lo, hi)
         f, last = t[i], t[i + length - 1]
         f2, l0 = t[i + 1] if length > 1 else None, t[i + length - 2] if length > 1 else None
         a, p, nx, b = t[(i - 2) % n], t[i - 1], t[(i + length) % n], t[(i + length + 1) % n]
-        ends = cost(p, f, f2) + cost(l0, last, nx) if length > 1 else cost(p, f, nx)
-        saved = (dist[p, f] + dist[last, nx] - dist[p, nx] + cost(a, p, f) + cost(last, nx, b) + ends
+        ends = turn[i] + turn[i + length - 1] if length > 1 else turn[i]
+        saved = (dist[p, f] + dist[last, nx] - dist[p, nx] + turn[i - 1] + turn[(i + length) % n] + ends
                  - cost(a, p, nx) - cost(p, nx, b))
         ends_near = np.concatenate([where[near[f]], where[near[last]]], axis=1)
         k = np.concatenate([ends_near, ends_near - 1], axis=1) % n  # edge k: t[k] -> t[k + 1]
         w, x, y, z = t[(k - 1) % n], t[k], t[(k + 1) % n], t[(k + 2) % n]
         F, Lst = f[:, None], last[:, None]
-        base = dist[x, y] + cost(w, x, y) + cost(x, y, z)
+        base = dist[x, y] + turn[k] + turn[(k + 1) % n]
         if length > 1:
             F2, L0 = f2[:, None], l0[:, None]
             fwd = (dist[x, F] + dist[Lst, y] + cost(w, x, F) + cost(x, F, F2) + cost(L0, Lst, y) + cost(Lst, y, z)
