@@ -1,12 +1,15 @@
 """The flight graph: a lattice built before the shots are known serves only the graph it is
 the lattice of, and then gives exactly the graph built from scratch."""
 
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
 import pytest
+from scipy.sparse.csgraph import dijkstra
 import trimesh
 
 from coverplan import load_scene
-from coverplan.flight.pathing import build_flight_graph, build_lattice, lattice_box
+from coverplan.flight.pathing import build_flight_graph, build_lattice, lattice_box, shot_distances
 from coverplan.shots.reachability import scene_limits
 from coverplan.world.scene import scene_from_meshes
 from tests.helpers import MESHES, box
@@ -56,6 +59,29 @@ def test_lattice_built_beforehand_gives_the_same_graph(house, off_x):
     reused = build_flight_graph(scene, limits, specials, margin=MARGIN, spacing=H, lattice=early)
     assert _same_graph(fresh, reused)
     assert fresh.graph.nnz > 10 * len(specials)
+
+
+def test_shot_distances_shared_with_a_pool_are_the_searches_of_every_shot(house):
+    """150 shots come in three blocks of sources, one searched on the pool: the costs are
+    those of one scipy search from every special point, cut at the limit."""
+    scene, limits = house
+    specials = np.vstack([_start(scene, 5.0), _shots(scene, n=150, seed=4)])
+    fg = build_flight_graph(scene, limits, specials, margin=MARGIN, spacing=H)
+    limit = 12.0
+    with ThreadPoolExecutor(max_workers=1) as pool:
+        shared = shot_distances(fg, len(specials), limit, pool)
+    alone = shot_distances(fg, len(specials), limit)
+    for a, b in zip(shared, alone):
+        assert np.array_equal(a, b)
+    idx = fg.n_lattice + np.arange(len(specials))
+    whole = dijkstra(fg.graph, indices=idx)[:, idx]
+    direct = shared[2]
+    near = whole <= limit
+    near[0, :] = near[:, 0] = True  # the start is searched without limit
+    assert np.allclose(direct[near], whole[near])
+    assert np.isinf(direct[~near]).all()
+    assert near.sum() < 0.8 * near.size  # the limit cut some pairs
+    assert np.all(shared[0] <= direct + 1e-9) and np.isfinite(shared[0][0]).all()
 
 
 def test_lattice_for_other_shots_or_spacing_is_not_used(house):

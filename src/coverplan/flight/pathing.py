@@ -12,6 +12,7 @@ Legs are shortened afterwards by replacing runs of nodes with straight safe segm
 
 from __future__ import annotations
 
+from concurrent.futures import Executor
 from dataclasses import dataclass
 
 import numpy as np
@@ -241,23 +242,31 @@ def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float
     return FlightGraph(points, graph, n_lat, spacing)
 
 
-def shot_distances(fg: FlightGraph, n_special: int, limit: float):
+_DIJKSTRA_ROWS = 64  # sources per scipy call: the (sources, graph nodes) result stays small
+
+
+def shot_distances(fg: FlightGraph, n_special: int, limit: float, pool: Executor | None = None):
     """Shortest-path costs between all special points (start + shots).
 
     Dijkstra from each shot is cut at ``limit``; farther pairs get their cost through chains of
     nearer shots (a shortest-path closure over the special points), and the start is searched
-    without limit so every reachable shot connects. Returns (closure, its predecessors, the
-    direct costs).
+    without limit so every reachable shot connects. With ``pool``, every other block of
+    sources is searched there (scipy's Dijkstra runs without the GIL), with the same result.
+    Returns (closure, its predecessors, the direct costs).
     """
     # The graphs are symmetric: directed=True gives the same paths and spares scipy a
     # conversion of the whole graph on every call.
     idx = fg.n_lattice + np.arange(n_special)
-    from_start = dijkstra(fg.graph, directed=True, indices=idx[:1])[:, idx]
-    if n_special > 1:
-        near = dijkstra(fg.graph, directed=True, indices=idx[1:], limit=limit)[:, idx]
-        direct = np.vstack([from_start, near])
-    else:
-        direct = from_start
+
+    def search(sources, cut=np.inf):
+        return dijkstra(fg.graph, directed=True, indices=sources, limit=cut)[:, idx]
+
+    blocks = np.array_split(idx[1:], -(-(n_special - 1) // _DIJKSTRA_ROWS)) if n_special > 1 else []
+    away = [pool.submit(search, b, limit) for b in blocks[1::2]] if pool is not None else []
+    rows = [search(idx[:1])]
+    for j, b in enumerate(blocks):
+        rows.append(away[j // 2].result() if j % 2 and away else search(b, limit))
+    direct = np.vstack(rows)
     direct = np.minimum(direct, direct.T)
     np.fill_diagonal(direct, 0.0)
     finite = np.isfinite(direct)

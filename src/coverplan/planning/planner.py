@@ -66,6 +66,6 @@ def plan(scene, camera: Camera, settings: PlanSettings | None = None, *, start=N
         problem = build_problem(scene, setup, progress, pool)
         selection = select_shots(problem, setup, progress)
         gaps = close_gaps(problem, selection, setup, progress)
-        flight = fly(scene, problem, gaps, setup, progress)
+        flight = fly(scene, problem, gaps, setup, progress, pool)
     return make_route(scene, setup, problem, selection, gaps, flight, progress.timings,
                       time.perf_counter() - t0)

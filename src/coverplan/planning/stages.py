@@ -431,8 +431,10 @@ class Flight:
     reaim_m: float  # and of a step that turns the camera
 
 
-def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progress) -> Flight:
-    """Flight graph (lattice + Dijkstra), tour, legs and the battery split."""
+def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progress,
+        pool: Executor | None = None) -> Flight:
+    """Flight graph (lattice + Dijkstra), tour, legs and the battery split; ``pool`` shares
+    the Dijkstra searches."""
     limits, settings, extra = setup.limits, setup.asked, setup.extra_clearance
     closer, chosen, check = gaps.closer, gaps.chosen, gaps.check
     cands = gaps.cover.cands
@@ -449,7 +451,7 @@ def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progr
         fg = build_flight_graph(scene, limits, specials, margin=extra, spacing=h, cost_weight=settings.cost_weight,
                                 lattice=lattice)
         limit = 4.0 * max(setup.d_opt, 3 * h) * (1.0 + 2.0 * settings.cost_weight)
-        closure, pred, direct = shot_distances(fg, len(specials), limit)
+        closure, pred, direct = shot_distances(fg, len(specials), limit, pool)
     flyable = np.isfinite(closure[0])
     if not flyable[1:].any():
         raise PlanningError("no safe path from the start point to any shot; move the start point")
@@ -463,7 +465,7 @@ def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progr
         specials = np.vstack([setup.start, shots.positions])
         fg = build_flight_graph(scene, limits, specials, margin=extra, spacing=h, cost_weight=settings.cost_weight,
                                 lattice=lattice)
-        closure, pred, direct = shot_distances(fg, len(specials), limit)
+        closure, pred, direct = shot_distances(fg, len(specials), limit, pool)
     check = closer.edge_of_hidden(check, chosen)
     uncovered = closer.uncovered(check, lost_path=not flyable.all())
     with progress.stage("tour"):
