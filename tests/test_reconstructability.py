@@ -40,6 +40,31 @@ def test_pair_window_needs_a_pair_inside_it():
     assert has_pair_between(pts, rays, 5, 5.0, None).tolist() == [False, True, True, True, False]
 
 
+
+@pytest.mark.parametrize("hi_deg", [35.0, None])
+def test_pair_window_on_many_rays_is_the_brute_force_answer(hi_deg):
+    """Points with up to 40 rays, shuffled, most within a few degrees of each other: the first
+    look at 8 rays a point and the full look after it agree with every pair tried by hand."""
+    rng = np.random.default_rng(7)
+    n = 300
+    counts = rng.integers(1, 41, n)
+    pts = rng.permutation(np.repeat(np.arange(n), counts))
+    spread = np.where(rng.random(n) < 0.5, 1.2, 30.0)[pts]  # narrow points need a late wide ray
+    angles = rng.normal(0.0, 1.0, (len(pts), 2)) * spread[:, None]
+    rays = np.column_stack([np.sin(np.radians(angles[:, 0])), np.sin(np.radians(angles[:, 1])), np.ones(len(pts))])
+    rays /= np.linalg.norm(rays, axis=1, keepdims=True)
+    expected = np.zeros(n, dtype=bool)
+    for p in range(n):
+        r = rays[pts == p]
+        deg = np.degrees(np.arccos(np.clip(r @ r.T, -1.0, 1.0)))
+        expected[p] = ((deg >= 5.0) & (deg <= (hi_deg or 180.0))).any()
+    got = has_pair_between(pts, rays, n, 5.0, hi_deg)
+    assert np.array_equal(got, expected)
+    assert 0.1 < expected.mean() < 0.95
+    # the full look mattered: some points have no such pair among their first 8 rays
+    first = np.concatenate([np.flatnonzero(pts == p)[:8] for p in range(n)])
+    assert (got & ~has_pair_between(pts[first], rays[first], n, 5.0, hi_deg)).any()
+
 def _wall_samples(n=41):
     """Samples on the wall x=0, y in [0, 40], z in [0, 4]."""
     y, z = np.meshgrid(np.linspace(0, 40, n), np.linspace(0, 4, 5))

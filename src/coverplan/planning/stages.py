@@ -103,7 +103,7 @@ from coverplan.shots.repair import (
 )
 from coverplan.shots.selection import select_views
 from coverplan.shots.surface import SurfaceSamples, default_spacing, sample_surface
-from coverplan.shots.visibility import imaging_pairs, pair_stats, view_rays
+from coverplan.shots.visibility import has_pair_between, imaging_pairs, view_rays
 
 MAX_LATTICE_NODES = 150_000
 
@@ -714,9 +714,10 @@ def _short_samples(pairs, positions, samples, min_views, min_triangulation_deg, 
     cam, pt, _ = pairs
     views = np.bincount(pt, minlength=len(samples))
     rays = view_rays(cam, pt, positions, samples.points)
-    widest, paired = pair_stats(pt, rays, len(samples), min_triangulation_deg, max_pair_deg)
-    short = (views < min_views + 1) | (widest < min_triangulation_deg * 2)
-    return short | ~paired if max_pair_deg is not None else short
+    short = (views < min_views + 1) | ~has_pair_between(pt, rays, len(samples), min_triangulation_deg * 2, None)
+    if max_pair_deg is None:
+        return short
+    return short | ~has_pair_between(pt, rays, len(samples), min_triangulation_deg, max_pair_deg)
 
 
 def _legs(fg: FlightGraph, order, pred, direct, scene, limits, margin) -> list[tuple[np.ndarray, int]]:

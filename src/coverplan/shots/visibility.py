@@ -255,7 +255,30 @@ def has_pair_between(point_index, rays, n_points: int, lo_deg: float, hi_deg: fl
     """Per point: do two of its view rays meet at an angle in [lo_deg, hi_deg]?
 
     ``hi_deg`` None means no upper bound (the thesis's rule: some pair at least lo_deg apart).
-    A pair inside the window both triangulates (wide enough) and matches (narrow enough)."""
+    A pair inside the window both triangulates (wide enough) and matches (narrow enough).
+    Points are judged on their first few rays first: a pair found there is a pair of all, and
+    only the points without one pay for the k x k cosines of all their rays."""
+    point_index = np.asarray(point_index, dtype=np.int64)
+    rays = np.asarray(rays, dtype=float).reshape(-1, 3)
+    counts = np.bincount(point_index, minlength=n_points)
+    if counts.max(initial=0) <= _FIRST_RAYS:
+        return _has_pair_between(point_index, rays, n_points, lo_deg, hi_deg)
+    order = np.argsort(point_index, kind="stable")
+    rank = np.empty(len(order), dtype=np.int64)
+    rank[order] = np.arange(len(order)) - np.repeat(np.cumsum(counts) - counts, counts)
+    few = rank < _FIRST_RAYS
+    ok = _has_pair_between(point_index[few], rays[few], n_points, lo_deg, hi_deg)
+    rest = ~ok & (counts > _FIRST_RAYS)
+    if rest.any():
+        again = rest[point_index]
+        ok[rest] = _has_pair_between(point_index[again], rays[again], n_points, lo_deg, hi_deg)[rest]
+    return ok
+
+
+_FIRST_RAYS = 8  # has_pair_between's first look: 64 cosines a point instead of k x k
+
+
+def _has_pair_between(point_index, rays, n_points: int, lo_deg: float, hi_deg: float | None) -> np.ndarray:
     if hi_deg is None:
         return widest_pair_angle(point_index, rays, n_points) >= lo_deg
     ok = np.zeros(n_points, dtype=bool)
