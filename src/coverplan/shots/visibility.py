@@ -251,6 +251,9 @@ def pair_stats(point_index, rays, n_points: int, lo_deg: float, hi_deg: float | 
     return widest, ok
 
 
+_FIRST_RAYS = 8  # has_pair_between's first look: 64 cosines a point instead of k x k
+
+
 def has_pair_between(point_index, rays, n_points: int, lo_deg: float, hi_deg: float | None) -> np.ndarray:
     """Per point: do two of its view rays meet at an angle in [lo_deg, hi_deg]?
 
@@ -273,9 +276,6 @@ def has_pair_between(point_index, rays, n_points: int, lo_deg: float, hi_deg: fl
         again = rest[point_index]
         ok[rest] = _has_pair_between(point_index[again], rays[again], n_points, lo_deg, hi_deg)[rest]
     return ok
-
-
-_FIRST_RAYS = 8  # has_pair_between's first look: 64 cosines a point instead of k x k
 
 
 def _has_pair_between(point_index, rays, n_points: int, lo_deg: float, hi_deg: float | None) -> np.ndarray:
