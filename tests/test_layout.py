@@ -12,7 +12,7 @@ PACKAGE = Path(coverplan.__file__).parent
 
 # Earlier first. A module may import its own layer and the ones before it.
 LAYERS = [
-    {"errors", "progress", "files"},
+    {"errors", "progress", "files", "runs"},
     {"geometry"},
     {"equipment"},
     {"world"},

@@ -25,6 +25,7 @@ from shapely.geometry import MultiPolygon, Polygon
 from shapely.ops import unary_union
 
 from coverplan.geometry.orientation import heading_pitch, view_direction
+from coverplan.runs import run_offsets
 from coverplan.shots.reachability import (
     OK,
     ViewLimits,
@@ -361,7 +362,7 @@ def spread_per_owner(owner: np.ndarray, k: int) -> np.ndarray:
     n = np.diff(np.r_[first, len(owner)])
     take = np.minimum(n, k)
     group = np.repeat(np.arange(len(first)), take)
-    i = np.arange(int(take.sum())) - np.repeat(np.cumsum(take) - take, take)
+    i = run_offsets(take)
     # linspace's arithmetic exactly: i * ((n - 1) / (take - 1)), the last one n - 1 (one: the first).
     div = np.maximum(take[group] - 1, 1)
     at = (i * ((n[group] - 1) / div)).astype(np.int64)

@@ -24,6 +24,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
 from coverplan.errors import ParameterError
+from coverplan.runs import run_offsets
 
 
 # "centroid": the rays of two photos meet at the centroid of all the samples both see.
@@ -319,7 +320,7 @@ def following_pairs(entries: np.ndarray, later: np.ndarray) -> tuple[np.ndarray,
         ``a[i] < b[i]``: every unordered pair of one sample's entries once, for the entries given.
     """
     a = np.repeat(entries, later)
-    b = a + 1 + (np.arange(len(a)) - np.repeat(np.cumsum(later) - later, later))
+    b = a + 1 + run_offsets(later)
     return a, b
 
 

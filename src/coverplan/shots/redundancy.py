@@ -21,6 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from coverplan.runs import run_offsets
 from coverplan.shots.reconstructability import depth_first
 from coverplan.shots.visibility import has_pair_between
 
@@ -212,6 +213,6 @@ def _rows(vis, rays, chosen):
     if lengths.sum() == 0:
         return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3))
     starts = np.repeat(indptr[chosen], lengths)
-    offsets = np.arange(lengths.sum()) - np.repeat(np.cumsum(lengths) - lengths, lengths)
+    offsets = run_offsets(lengths)
     entries = starts + offsets
     return np.repeat(np.arange(len(chosen)), lengths), vis.indices[entries], rays[entries]

@@ -18,6 +18,7 @@ import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
 from coverplan.geometry.orientation import camera_axes
+from coverplan.runs import run_offsets
 from coverplan.shots.reachability import tangent_frames
 
 
@@ -268,7 +269,7 @@ def has_pair_between(point_index, rays, n_points: int, lo_deg: float, hi_deg: fl
         return _has_pair_between(point_index, rays, n_points, lo_deg, hi_deg)
     order = np.argsort(point_index, kind="stable")
     rank = np.empty(len(order), dtype=np.int64)
-    rank[order] = np.arange(len(order)) - np.repeat(np.cumsum(counts) - counts, counts)
+    rank[order] = run_offsets(counts)
     few = rank < _FIRST_RAYS
     ok = _has_pair_between(point_index[few], rays[few], n_points, lo_deg, hi_deg)
     rest = ~ok & (counts > _FIRST_RAYS)

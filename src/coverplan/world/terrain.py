@@ -24,6 +24,7 @@ from scipy import ndimage
 
 from coverplan.errors import InputFileError, ParameterError
 from coverplan.geometry.raycast import RayCaster
+from coverplan.runs import run_offsets
 
 # The grid is kept below this many cells: a finer raster is resampled, keeping each new
 # cell's highest ground (the minimum altitude is then never measured from too low).
@@ -222,7 +223,7 @@ class Terrain:
             if not total:
                 continue
             owner = np.repeat(np.arange(n), count)
-            k = lo[owner] + np.arange(total) - np.repeat(np.cumsum(count) - count, count)
+            k = lo[owner] + run_offsets(count)
             ds = (s1 - s0)[owner]
             moving = np.abs(ds) > 1e-12
             t = np.where(moving, (k - s0[owner]) / np.where(moving, ds, 1.0), 0.0)
