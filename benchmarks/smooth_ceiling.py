@@ -28,8 +28,7 @@ from scipy.sparse.csgraph import connected_components
 from common import MESHES, table, write_json
 from coverplan import load_scene, plan
 from coverplan.equipment.drones import get_drone
-from coverplan.flight.lanes import (SMOOTH_HEADING_DEG, SMOOTH_PITCH_DEG, route_step_shape, smooth_ceiling,
-                                    smooth_step)
+from coverplan.flight.lanes import SMOOTH_HEADING_DEG, SMOOTH_PITCH_DEG, route_step_shape, smooth_ceiling, smooth_step
 from coverplan.geometry.orientation import heading_change_deg
 from plan_scenes import SCENES
 
@@ -75,8 +74,9 @@ def row(name: str, route) -> dict:
         pct, added = bridged(extra, extra <= limit // SMOOTH_HEADING_DEG - 1)
         bridges[f"bridged_{limit}_smooth_pct"], bridges[f"bridged_{limit}_photos_x"] = pct, added / n
     bridges["to_bar_photos_x"] = to_bar(extra) / n
-    return {**bridges, "scene": name, "photos": int(route.shot.sum()), "headings": len(np.unique(np.round(heading) % 360)),
-            "pitches": len(np.unique(np.round(pitch))), "groups": len(sizes), "alone": int((sizes == 1).sum()),
+    return {**bridges, "scene": name, "photos": int(route.shot.sum()),
+            "headings": len(np.unique(np.round(heading) % 360)), "pitches": len(np.unique(np.round(pitch))),
+            "groups": len(sizes), "alone": int((sizes == 1).sum()),
             "ceiling_pct": smooth_ceiling(heading, pitch), "smooth_pct": smooth, "reversals_per_100": reversals}
 
 
@@ -102,7 +102,8 @@ def main(argv=None):
                        ("to_bar_photos_x", "+photos x to 75 %", ".2f")]))
     under = [r["scene"] for r in rows if r["ceiling_pct"] < LANES_BAR_PCT]
     print(f"ceiling under {LANES_BAR_PCT:g} %: {len(under)} of {len(rows)} ({', '.join(under) or 'none'})")
-    print(f"written {write_json('smooth_ceiling', args.quick, {'drone': 'm3e', 'gsd_m': 0.004, 'security_m': 3.0, 'rows': rows})}")
+    payload = {"drone": "m3e", "gsd_m": 0.004, "security_m": 3.0, "rows": rows}
+    print(f"written {write_json('smooth_ceiling', args.quick, payload)}")
 
 
 if __name__ == "__main__":
