@@ -33,7 +33,7 @@ from common import MESHES, table, write_json
 from coverplan import evaluate, get_camera, load_scene, plan, simulate
 from coverplan.equipment.drones import get_drone
 from coverplan.evaluation import view_limits
-from coverplan.flight.lanes import SMOOTH_HEADING_DEG, SMOOTH_PITCH_DEG, route_step_shape
+from coverplan.flight.lanes import route_step_shape
 from coverplan.flight.passing import camera_timing, fly_through
 from coverplan.flight.route import Route
 from coverplan.flight.turning import MIN_LEG_M
@@ -42,6 +42,7 @@ from coverplan.planning import stages
 from coverplan.runs import run_offsets
 from coverplan.sfm.colmap import SPATIAL_NEIGHBOURS
 from plan_scenes import SCENES
+from smooth_ceiling import bridging_photos
 from structure_scan import scan_with_roof_grid
 
 MAX_TURN_DEG = 60.0
@@ -55,8 +56,7 @@ def bridge_turns(route: Route, max_turn_deg: float) -> Route:
         return route
     turn, tilt = heading_change_deg(h[:-1], h[1:]), np.diff(g)
     length = np.linalg.norm(np.diff(p, axis=0), axis=1)
-    need = np.maximum(np.ceil(np.maximum(np.abs(turn) / SMOOTH_HEADING_DEG, np.abs(tilt) / SMOOTH_PITCH_DEG) - 1e-9)
-                      - 1, 0)
+    need = bridging_photos(h, g)
     room = np.floor(length / MIN_LEG_M) - 1
     leg = (shot[:-1] & shot[1:] & (route.flight[:-1] == route.flight[1:]) & (np.abs(turn) <= max_turn_deg)
            & (np.abs(tilt) <= max_turn_deg / 2) & (room >= need))  # half a bridge leaves only turns

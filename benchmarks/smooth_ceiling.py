@@ -54,10 +54,10 @@ def bridged(extra: np.ndarray, mask: np.ndarray) -> tuple[float, int]:
 
 def to_bar(extra: np.ndarray) -> int:
     """The fewest bridging photos that bring the order to LANES_BAR_PCT (smallest turns first)."""
-    need = np.sort(extra[extra > 0])
-    steps, smooth = len(extra) + np.cumsum(need), (extra == 0).sum() + np.cumsum(need + 1)
     if (extra == 0).sum() >= LANES_BAR_PCT / 100 * len(extra):
         return 0
+    need = np.sort(extra[extra > 0])
+    steps, smooth = len(extra) + np.cumsum(need), (extra == 0).sum() + np.cumsum(need + 1)
     return int(need[:int(np.argmax(smooth >= LANES_BAR_PCT / 100 * steps)) + 1].sum())
 
 
