@@ -16,7 +16,9 @@ Part 1: every sample scene as ``flights.py`` part 3 plans it (Mavic 3 Enterprise
 plan beside the bridged one, the scan + roof grid flown through by the same model and drone,
 and the bridged plan's coverage re-checked by the evaluator.
 Part 2 (``--field S ...``): field simulates of the bridged plans as ``reconstruction.py``
-plans them (Phantom 4 Pro, 4 mm/px, 3 m), ``--seed`` and ``--conditions`` as there.
+plans them (Phantom 4 Pro, 4 mm/px, 3 m), ``--seed`` and ``--conditions`` as there; with
+``--unbridged --min-views N``, of plans that take more photos the planner's way instead, as
+a control (is it the photos' number or their small steps?).
 Nothing here changes the planner.
 """
 
@@ -24,7 +26,7 @@ from __future__ import annotations
 
 import argparse
 import tempfile
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 from pathlib import Path
 
 import numpy as np
@@ -131,18 +133,20 @@ def cost_rows(names, max_turn_deg: float, gsd: float = 0.004, security: float = 
     return rows
 
 
-def field_rows(names, max_turn_deg: float, conditions: str, seed: int, neighbours: int, out: Path) -> list[dict]:
+def field_rows(names, max_turn_deg: float, conditions: str, seed: int, neighbours: int, out: Path,
+               bridge: bool = True, options: dict | None = None) -> list[dict]:
     camera = get_camera("phantom4pro")
     rows = []
     for name in names:
         target, obstacles = SCENES[name]
         scene = load_scene(MESHES / target, [MESHES / o for o in obstacles])
-        with bridged_planner(max_turn_deg):
-            route = plan(scene, camera, gsd=0.004, security=3.0)
+        with bridged_planner(max_turn_deg) if bridge else nullcontext():
+            route = plan(scene, camera, gsd=0.004, security=3.0, **(options or {}))
         sim = simulate(route, scene, out / f"{name}_{conditions}", conditions=conditions, draws=1, seed=seed,
                        spatial_neighbours=neighbours)
         by = sim.surface["by_radius"]["0.2"]
-        rows.append({"scene": name, "conditions": conditions, "seed": seed, "photos": sim.photos,
+        rows.append({"scene": name, "bridged": bridge, **(options or {}), "conditions": conditions, "seed": seed,
+                     "photos": sim.photos,
                      "registered": sim.registered, "models": sim.models, "surface_02_pct": by["pct"],
                      "worst_class": min(by["by_class_pct"], key=by["by_class_pct"].get),
                      "worst_class_pct": min(by["by_class_pct"].values()), "smooth_pct": route_step_shape(route)[0]})
@@ -160,6 +164,9 @@ def main(argv=None):
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--neighbours", type=int, default=SPATIAL_NEIGHBOURS)
     parser.add_argument("--no-cost", action="store_true", help="part 2 only")
+    parser.add_argument("--unbridged", action="store_true",
+                        help="part 2 on the plans as planned (a control: with --min-views, more photos, not bridged)")
+    parser.add_argument("--min-views", type=int, default=None, help="part 2: the plans' min_views")
     parser.add_argument("--tag", default="")
     args = parser.parse_args(argv)
     names = ["square"] if args.quick else list(SCENES)
@@ -178,8 +185,11 @@ def main(argv=None):
     field = []
     if args.field:
         with tempfile.TemporaryDirectory() as tmp:
-            field = field_rows(args.field, args.max_turn, args.conditions, args.seed, args.neighbours, Path(tmp))
-        print(table(field, [("scene", "scene", ""), ("conditions", "conditions", ""), ("seed", "seed", "d"),
+            options = {} if args.min_views is None else {"min_views": args.min_views}
+            field = field_rows(args.field, args.max_turn, args.conditions, args.seed, args.neighbours, Path(tmp),
+                               bridge=not args.unbridged, options=options)
+        print(table(field, [("scene", "scene", ""), ("bridged", "bridged", ""), ("conditions", "conditions", ""),
+                            ("seed", "seed", "d"),
                             ("photos", "photos", "d"), ("registered", "registered", "d"), ("models", "models", "d"),
                             ("surface_02_pct", "@0.2 m %", ".1f"), ("worst_class", "worst class", ""),
                             ("worst_class_pct", "worst %", ".1f"), ("smooth_pct", "smooth %", ".0f")]))
