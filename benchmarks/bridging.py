@@ -193,7 +193,7 @@ def main(argv=None):
                             ("photos", "photos", "d"), ("registered", "registered", "d"), ("models", "models", "d"),
                             ("surface_02_pct", "@0.2 m %", ".1f"), ("worst_class", "worst class", ""),
                             ("worst_class_pct", "worst %", ".1f"), ("smooth_pct", "smooth %", ".0f")]))
-    payload = {"max_turn_deg": args.max_turn, "cost": rows, "field": field}
+    payload = {"max_turn_deg": args.max_turn, "rows": rows, "field": field}
     print(f"written {write_json('bridging' + args.tag, args.quick, payload)}")
 
 
