@@ -5,8 +5,8 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
-from scipy.sparse.csgraph import dijkstra
 import trimesh
+from scipy.sparse.csgraph import dijkstra
 
 from coverplan import load_scene
 from coverplan.flight.pathing import build_flight_graph, build_lattice, lattice_box, shot_distances

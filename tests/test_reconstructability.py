@@ -40,7 +40,6 @@ def test_pair_window_needs_a_pair_inside_it():
     assert has_pair_between(pts, rays, 5, 5.0, None).tolist() == [False, True, True, True, False]
 
 
-
 @pytest.mark.parametrize("hi_deg", [35.0, None])
 def test_pair_window_on_many_rays_is_the_brute_force_answer(hi_deg):
     """Points with up to 40 rays, shuffled, most within a few degrees of each other: the first
@@ -64,6 +63,7 @@ def test_pair_window_on_many_rays_is_the_brute_force_answer(hi_deg):
     # the full look mattered: some points have no such pair among their first 8 rays
     first = np.concatenate([np.flatnonzero(pts == p)[:8] for p in range(n)])
     assert (got & ~has_pair_between(pts[first], rays[first], n, 5.0, hi_deg)).any()
+
 
 def _wall_samples(n=41):
     """Samples on the wall x=0, y in [0, 40], z in [0, 4]."""
