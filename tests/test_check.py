@@ -61,3 +61,61 @@ def test_check_finds_one_model_and_names_the_side_left_out(tmp_path, capsys):
     assert classes.count("facade north") > 0.4 * len(classes)
     lon, lat = np.array([f["geometry"]["coordinates"][:2] for f in missing]).T
     assert np.all(np.abs(lat - 48.77) < 0.001) and np.all(np.abs(lon - 9.18) < 0.001)
+
+
+@pytest.mark.xdist_group("photos_check")
+def test_check_of_a_real_size_flight_goes_through_spatial_matching(tmp_path, capsys):
+    """Over the exhaustive-matching limit (80 photos) COLMAP's feature extraction has stored a
+    pose prior from each photo's EXIF GPS before the spatial matching writes its own: one prior
+    per image must remain, in the scene's frame, and the whole flight must rebuild in one model."""
+    pycolmap = pytest.importorskip("pycolmap")
+    scene = load_scene(MESHES / "gabled_house.obj", geodetic_origin=[float(v) for v in ORIGIN])
+    route = plan(scene, get_camera("phantom4pro"), gsd=0.002, security=3.0, edge_views=False)
+    assert len(route.shots) >= 100
+    folder = tmp_path / "photos"
+    write_flight_photos(route, scene, folder, width=240)
+    out = tmp_path / "check"
+    code = main(["check", str(folder), "--target", str(MESHES / "gabled_house.obj"), "--geo-origin", *ORIGIN,
+                 "-o", str(out), "--json", "-q"])
+    assert code == 0
+    result = json.loads(capsys.readouterr().out)
+    db = pycolmap.Database.open(out / "colmap" / "database.db")
+    try:
+        images = {im.data_id.id: im.name for im in db.read_all_images()}
+        priors = db.read_all_pose_priors()
+    finally:
+        db.close()
+    assert len(images) == len(route.shots)
+    assert sorted(p.corr_data_id.id for p in priors) == sorted(images)  # one prior per image, no second one
+    assert all(p.coordinate_system == pycolmap.PosePriorCoordinateSystem.CARTESIAN for p in priors)
+    planned = {f"DJI_{k + 1:04d}.JPG": route.positions[s] for k, s in enumerate(route.shots)}
+    for p in priors:  # the prior is the photo's tag in the scene's frame (local metres)
+        assert np.linalg.norm(np.asarray(p.position) - planned[images[p.corr_data_id.id]]) < 0.05
+    rec = pycolmap.Reconstruction(out / "colmap" / "sparse" / "0")  # COLMAP's own model on disk
+    assert rec.num_reg_images() == result["registered"] >= 0.98 * len(route.shots)
+    assert result["models"] == 1
+    assert result["gnss_residual_m"]["median"] < 0.5
+    assert result["surface"]["by_radius"]["0.2"]["pct"] >= 85.0
+
+
+def test_a_colmap_failure_names_its_stage_and_keeps_the_database(tmp_path, capsys, monkeypatch):
+    pytest.importorskip("pycolmap")
+    from coverplan.sfm import colmap
+
+    scene = load_scene(MESHES / "gabled_house.obj", geodetic_origin=[float(v) for v in ORIGIN])
+    route = plan(scene, get_camera("phantom4pro"), gsd=0.004, security=3.0, edge_views=False)
+    folder = tmp_path / "photos"
+    write_flight_photos(route, scene, folder, width=160, shots=np.arange(6))
+
+    def broken(*args, **kwargs):  # as pycolmap raises its C++ errors
+        raise RuntimeError("[incremental_mapper.cc:1] Check failed: something inside COLMAP")
+
+    monkeypatch.setattr(colmap, "map_models", broken)
+    out = tmp_path / "check"
+    code = main(["check", str(folder), "--target", str(MESHES / "gabled_house.obj"), "--geo-origin", *ORIGIN,
+                 "-o", str(out), "-q"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1
+    assert "COLMAP failed in" in err[0] and "mapping" in err[0] and "Traceback" not in err[0]
+    database = out / "colmap" / "database.db"
+    assert str(database) in err[0] and database.exists()

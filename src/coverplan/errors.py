@@ -26,3 +26,7 @@ class ParameterError(CoverplanError):
 
 class PlanningError(CoverplanError):
     """Settings that make a plan impossible (start inside a mesh, d_opt <= security, ...)."""
+
+
+class SfmError(CoverplanError):
+    """COLMAP failed in one of its stages; what it had written is kept for a look or a rerun."""

@@ -45,6 +45,7 @@ class Check:
     icp_shift_m: float = 0.0  # how far the fit to the scene moves the model from its GNSS alignment
     fitted: bool = False  # whether the fit was applied (not when it would move the model > MAX_FIT_M)
     missing: dict = field(default_factory=dict)  # per class: m2 not rebuilt at 0.2 m
+    gnss_residual_m: dict = field(default_factory=dict)  # median / max camera centre to its GNSS tag, aligned
 
     def table(self) -> str:
         rows = [("photos in the folder", f"{len(self.names) + len(self.left_out)}"),
@@ -53,6 +54,9 @@ class Check:
                 ("aligned to the scene", (f"through the GNSS tags, then fitted to the surfaces (moved "
                                           f"{self.icp_shift_m:.2f} m)") if self.fitted else
                  f"through the GNSS tags only (a fit would move it {self.icp_shift_m:.1f} m)")]
+        if self.gnss_residual_m:
+            rows.append(("camera centres from their tags", f"median {self.gnss_residual_m['median']:.2f} m, "
+                                                           f"max {self.gnss_residual_m['max']:.2f} m (after alignment)"))
         rows += self.simulation.rows()[1:]
         worst = sorted(self.missing.items(), key=lambda kv: -kv[1])[:4]
         rows += [("missing", ", ".join(f"{c} {a:.1f} m2" for c, a in worst if a > 0.05) or "nothing")]
@@ -61,7 +65,8 @@ class Check:
 
     def to_dict(self) -> dict:
         return {"photos_used": self.names, "left_out": [{"photo": n, "why": w} for n, w in self.left_out],
-                "icp_shift_m": self.icp_shift_m, "fitted": self.fitted, "missing_m2": self.missing, **self.simulation.to_dict()}
+                "icp_shift_m": self.icp_shift_m, "fitted": self.fitted, "missing_m2": self.missing,
+                "gnss_residual_m": self.gnss_residual_m, **self.simulation.to_dict()}
 
 
 def photos_as_mission(tags: list[PhotoTags], absolute_heights: bool, source: str) -> Mission:
@@ -182,7 +187,7 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
     -------
     Check
     """
-    require_pycolmap()
+    require_pycolmap("check")
     progress = progress or Progress()
     folder = Path(photos_dir)
     route, tags, left_out, photo = photos_route(folder, scene, gsd, security, progress, least=2)
@@ -225,7 +230,8 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
                      sample_distance=distance, model_points=pts, conditions="photos", texture="real")
     missing_mask = distance > 0.2
     missing = {c: float(samples.area[missing_mask & (classes == c)].sum()) for c in sorted(set(classes))}
-    result = Check(sim, route, names, left_out, shift, fitted, missing)
+    residual = best.centre_error_m(names, gnss) if best is not None and best.aligned else {}
+    result = Check(sim, route, names, left_out, shift, fitted, missing, residual)
     _write(result, scene, samples, missing_mask, classes, out_dir)
     return result
 

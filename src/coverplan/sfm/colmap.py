@@ -11,23 +11,24 @@ from __future__ import annotations
 
 import os
 import shutil
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from coverplan.errors import ParameterError
+from coverplan.errors import ParameterError, SfmError
 from coverplan.progress import clock_bar
 
-INSTALL_HINT = "simulate needs pycolmap; install it with: pip install 'coverplan[sfm]'"
+INSTALL_HINT = "{command} needs pycolmap; install it with: pip install 'coverplan[sfm]'"
 
 
-def require_pycolmap():
-    """The pycolmap module, or a one-line error saying how to get it."""
+def require_pycolmap(command: str = "simulate"):
+    """The pycolmap module, or a one-line error saying how to get it for ``command``."""
     try:
         import pycolmap
     except ImportError:
-        raise ParameterError(INSTALL_HINT) from None
+        raise ParameterError(INSTALL_HINT.format(command=f"coverplan {command}")) from None
     return pycolmap
 
 
@@ -202,21 +203,42 @@ def map_models(pycolmap, mapper: str, database: Path, image_dir: Path, sparse: P
 
 
 def write_position_priors(pycolmap, database: Path, names: list[str], positions: np.ndarray, sigma_m: float) -> None:
-    """Each photo's recorded position (its GNSS tag, local metres) as a COLMAP pose prior."""
+    """Each photo's recorded position (its GNSS tag, local metres) as a COLMAP pose prior.
+
+    COLMAP's feature extraction already stores a prior (in WGS84) for every photo whose EXIF
+    carries GPS, and the database keeps one prior per image: that one is replaced, not joined
+    by a second.
+    """
     db = _open_database(pycolmap, database)
     try:
         index = {name: k for k, name in enumerate(names)}
+        stored = {_data_key(p.corr_data_id): p for p in db.read_all_pose_priors()}
         cov = np.eye(3) * float(sigma_m) ** 2
         for image in db.read_all_images():
             k = index.get(image.name)
             if k is None:
                 continue
-            prior = pycolmap.PosePrior(position=np.asarray(positions[k], dtype=float), position_covariance=cov,
-                                       coordinate_system=pycolmap.PosePriorCoordinateSystem.CARTESIAN)
-            prior.corr_data_id = image.data_id
-            db.write_pose_prior(prior)
+            prior = stored.get(_data_key(image.data_id))
+            fresh = prior is None
+            if fresh:
+                prior = pycolmap.PosePrior()
+                prior.corr_data_id = image.data_id
+            prior.position = np.asarray(positions[k], dtype=float)
+            prior.position_covariance = cov
+            prior.coordinate_system = pycolmap.PosePriorCoordinateSystem.CARTESIAN
+            if fresh:
+                db.write_pose_prior(prior)
+            else:
+                db.update_pose_prior(prior)
     finally:
         db.close()
+
+
+def _data_key(data_id) -> tuple:
+    """A hashable key of a COLMAP data id (sensor and the image it belongs to)."""
+    sensor = data_id.sensor_id
+    return (int(sensor.type.value) if hasattr(sensor.type, "value") else str(sensor.type), int(sensor.id),
+            int(data_id.id))
 
 
 def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, pairs: list[tuple[int, int]],
@@ -258,7 +280,7 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     # The rest of SIFT stays at COLMAP's defaults, as a user's own COLMAP run would have it.
     # Starting at octave 0 instead of -1 (no upsampling) found a quarter of the features and
     # left about 10 % of a well-photographed wall without a point within 0.2 m.
-    with _stage(progress, "SfM features", total=len(names)) as tick:
+    with _colmap_failure("feature extraction", database), _stage(progress, "SfM features", total=len(names)) as tick:
         extract_features(pycolmap, database, image_dir, names, reader, extraction, tick)
     seconds["features"] = time.perf_counter() - t
 
@@ -272,16 +294,19 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     verification.ransac.random_seed = int(seed)
     if len(names) <= exhaustive_limit:
         total = len(names) * (len(names) - 1) // 2
-        with _stage(progress, "SfM matching", total=total, unit="pair") as tick:
+        with _colmap_failure("exhaustive matching", database), \
+                _stage(progress, "SfM matching", total=total, unit="pair") as tick:
             polled(pycolmap, lambda token: pycolmap.match_exhaustive(
                 database, matching_options=matching, verification_options=verification,
                 device=pycolmap.Device.cpu, cancellation_token=token), database, "two_view_geometries", total, tick)
     else:
         if matching_kind == "spatial":
             recorded = recorded_positions if recorded_positions is not None else true_centres
-            write_position_priors(pycolmap, database, names, recorded, 1.0)
+            with _colmap_failure("writing the GNSS positions as pose priors", database):
+                write_position_priors(pycolmap, database, names, recorded, 1.0)
             pairs = spatial_pairs(recorded, neighbours, neighbour_distance)
-        _match_pairs(pycolmap, database, work_dir, names, pairs, matching, verification, progress)
+        with _colmap_failure("matching", database):
+            _match_pairs(pycolmap, database, work_dir, names, pairs, matching, verification, progress)
     seconds["matching"] = time.perf_counter() - t
     db = _open_database(pycolmap, database)
     matched, verified = int(db.num_matched_image_pairs()), int(db.num_verified_image_pairs())
@@ -290,7 +315,8 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     t = time.perf_counter()
     sparse = work_dir / "sparse"
     sparse.mkdir()
-    recs = map_models(pycolmap, mapper, database, image_dir, sparse, threads, seed, len(names), progress)
+    with _colmap_failure(f"{mapper} mapping", database):
+        recs = map_models(pycolmap, mapper, database, image_dir, sparse, threads, seed, len(names), progress)
     seconds["mapping"] = time.perf_counter() - t
     for k, rec in enumerate(sorted(recs.values(), key=lambda r: -r.num_reg_images())):
         (sparse / str(k)).mkdir(exist_ok=True)
@@ -306,6 +332,16 @@ def aligned_models(pycolmap, recs: dict, names: list[str], true_centres: np.ndar
     models = [_aligned(pycolmap, rec, index, true_centres) for rec in recs.values()]
     models.sort(key=lambda m: -len(m.image_names))
     return models
+
+
+@contextmanager
+def _colmap_failure(stage: str, database: Path):
+    """COLMAP's own errors as one line naming the stage that failed and the database kept."""
+    try:
+        yield
+    except RuntimeError as exc:
+        what = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+        raise SfmError(f"COLMAP failed in {stage} ({what}); what it had done is kept in {database}") from None
 
 
 POLL_S = 1.0  # seconds between reads of COLMAP's database for a bar's progress
