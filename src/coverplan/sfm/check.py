@@ -55,8 +55,9 @@ class Check:
                                           f"{self.icp_shift_m:.2f} m)") if self.fitted else
                  f"through the GNSS tags only (a fit would move it {self.icp_shift_m:.1f} m)")]
         if self.gnss_residual_m:
-            rows.append(("camera centres from their tags", f"median {self.gnss_residual_m['median']:.2f} m, "
-                                                           f"max {self.gnss_residual_m['max']:.2f} m (after alignment)"))
+            residual = self.gnss_residual_m
+            rows.append(("camera centres from their tags",
+                         f"median {residual['median']:.2f} m, max {residual['max']:.2f} m (after alignment)"))
         rows += self.simulation.rows()[1:]
         worst = sorted(self.missing.items(), key=lambda kv: -kv[1])[:4]
         rows += [("missing", ", ".join(f"{c} {a:.1f} m2" for c, a in worst if a > 0.05) or "nothing")]
