@@ -71,11 +71,11 @@ def settings_(draw):
 
 
 def plan_or_refusal(scene, opts):
-    """The plan for ``opts`` (camera, gsd, security, min_altitude), or None where the planner
-    refuses with a documented one-line error."""
+    """The plan for ``opts`` (camera, gsd, security, min_altitude, and a selection if given),
+    or None where the planner refuses with a documented one-line error."""
     try:
         return plan(scene, opts["camera"], gsd=opts["gsd"], security=opts["security"],
-                    min_altitude=opts["min_altitude"], lp_time_limit=5)
+                    min_altitude=opts["min_altitude"], lp_time_limit=5, selection=opts.get("selection", "shots"))
     except (PlanningError, ParameterError) as exc:
         assert str(exc) and "\n" not in str(exc)
         return None
@@ -125,7 +125,7 @@ def check_random_scene(target_spec, obstacle_boxes, opts, results: dict, short: 
     np.testing.assert_array_equal(said_unreachable, ~mine.reachable)
 
 
-def _random_scenes(seed_value: int):
+def _random_scenes(seed_value: int, examples: int = EXAMPLES // 2, selection: str = "shots", least: int = 14):
     """A test of EXAMPLES / 2 random scenes drawn from ``seed_value`` (two halves, so that two
     test workers share the scenes), then of their mean: coverage at 0.25 m averages at
     least 99.9 %, and at most one scene in a hundred stays below 99.5 %. A fixed seed, not
@@ -141,15 +141,15 @@ def _random_scenes(seed_value: int):
         short: dict[tuple, float] = {}
 
         @seed(seed_value)
-        @settings(max_examples=EXAMPLES // 2, deadline=None, database=None,
+        @settings(max_examples=examples, deadline=None, database=None,
                   phases=[Phase.explicit, Phase.generate], suppress_health_check=[HealthCheck.too_slow])
         @given(target=targets(), obs=obstacles(), opts=settings_())
         def run(target, obs, opts):
-            check_random_scene(target, obs, opts, results, short)
+            check_random_scene(target, obs, dict(opts, selection=selection), results, short)
 
         run()
         # Most draws are plannable (the rest refused with a documented error): the mean means something.
-        assert len(results) >= 14, len(results)
+        assert len(results) >= least, len(results)
         coverage = list(results.values())
         assert np.mean(coverage) >= 99.9, (np.mean(coverage), min(coverage))
         assert len(short) <= max(1, round(0.01 * len(results))), list(short.values())
@@ -159,6 +159,9 @@ def _random_scenes(seed_value: int):
 
 test_random_scenes_first_half = pytest.mark.xdist_group("random_scenes_1")(_random_scenes(20261124))
 test_random_scenes_second_half = pytest.mark.xdist_group("random_scenes_2")(_random_scenes(20261125))
+# The lane selection (shots/lanes.py) under the same checks, on fewer scenes.
+test_random_scenes_lanes = pytest.mark.xdist_group("random_scenes_lanes")(
+    _random_scenes(20261205, examples=EXAMPLES // 2, selection="lanes"))
 
 
 @pytest.mark.slow

@@ -16,14 +16,14 @@ from coverplan.errors import CoverplanError, ParameterError
 from coverplan.evaluation import evaluate
 from coverplan.flight.missions import mission_to_route
 from coverplan.flight.route import Route
-from coverplan.flight.tour import DEFAULT_REAIM_STEPS, DEFAULT_REVERSAL_STEPS
+from coverplan.flight.tour import DEFAULT_LANE_STEPS, DEFAULT_REAIM_STEPS, DEFAULT_REVERSAL_STEPS
 from coverplan.geometry.geo import check_crs
 from coverplan.io import GEOGRAPHIC_FORMATS, export_route, parse_formats, read_mission
 from coverplan.io.load import _check_geodetic_origin, load_scene
 from coverplan.io.qgc import PX4_MISSION_ITEMS
 from coverplan.io.zones import read_zones
 from coverplan.job import run_job, write_pictures
-from coverplan.planning.settings import DEFAULT_CEILING_M, LP_TIME_LIMIT_S
+from coverplan.planning.settings import DEFAULT_CEILING_M, LP_TIME_LIMIT_S, SELECTIONS
 from coverplan.progress import Progress
 from coverplan.sfm.check import check as check_photos
 from coverplan.sfm.colmap import GLOBAL_MAPPING_ABOVE, MAX_FEATURES, SPATIAL_NEIGHBOURS
@@ -272,6 +272,8 @@ def _plan_options(args, formats: list[str]) -> dict:
                 fly=args.fly, view_tilts=args.view_tilts,
                 edge_views=None if args.edge_views is None else args.edge_views == "on",
                 reversal_steps=args.reversal_cost, reaim_steps=args.reaim_cost,
+                selection=args.selection, forward_overlap=args.forward_overlap, side_overlap=args.side_overlap,
+                lane_steps=args.lane_cost,
                 max_memory=None if args.max_memory_gb is None
                 else check_positive("--max-memory-gb", args.max_memory_gb) * 1e9)
 
@@ -514,6 +516,17 @@ def _add_planning_args(p):
                    help=f"how much path the tour gives up to fly next to each other two photos whose camera need "
                         f"not turn between them (heading within 10 deg, pitch within 5 deg), in typical steps "
                         f"(default {DEFAULT_REAIM_STEPS:g}; 0: no preference)")
+    p.add_argument("--selection", choices=list(SELECTIONS), default="shots",
+                   help="shots (default): photos chosen one by one from every candidate view; lanes: whole runs of "
+                        "photos along façades and over roofs first, single shots only where no lane sees "
+                        "(docs/flights.md, \"Lanes\")")
+    p.add_argument("--forward-overlap", type=float, default=0.7, metavar="SHARE",
+                   help="lanes: share of the frame consecutive photos of a lane share (default 0.7)")
+    p.add_argument("--side-overlap", type=float, default=0.4, metavar="SHARE",
+                   help="lanes: share of the frame neighbouring lanes (bands, roof strips) share (default 0.4)")
+    p.add_argument("--lane-cost", type=float, default=DEFAULT_LANE_STEPS, metavar="STEPS",
+                   help=f"lanes: how much path the tour gives up to fly each lane end to end, in typical steps "
+                        f"(default {DEFAULT_LANE_STEPS:g})")
     p.add_argument("--min-views", type=int, default=None, help="views per surface point (default 3; thesis rule 2)")
     p.add_argument("--min-triangulation-deg", type=float, default=5.0)
     p.add_argument("--max-pair-deg", type=float, default=None, metavar="DEG",

@@ -27,6 +27,7 @@ _MIN_BLOCK = 4  # rows of moves evaluated per numpy call, at first
 _MAX_CELLS = 16_384  # and at most (rows x tour length): big blocks of long tours waste work
 DEFAULT_REVERSAL_STEPS = 6.0
 DEFAULT_REAIM_STEPS = 2.0
+DEFAULT_LANE_STEPS = 4.0  # PlanSettings.lane_steps
 _NEAR = 16  # turn-aware moves join a node to one of its 16 nearest
 
 
@@ -319,6 +320,37 @@ def reaim_costs(heading_deg, pitch_deg, reaim_m: float) -> np.ndarray:
     rough = ~smooth_step(heading[:, None], pitch[:, None], heading[None, :], pitch[None, :])
     rough[0, :] = rough[:, 0] = False
     return np.where(rough, float(reaim_m), 0.0)
+
+
+def lane_costs(lane_of: np.ndarray, shots: np.ndarray, lane_m: float) -> np.ndarray:
+    """(n + 1, n + 1) ``lane_m`` between two nodes that are not consecutive photos of one lane,
+    else 0; node 0 (the start) costs nothing. The tour then flies every lane end to end and
+    enters and leaves lanes only at their ends, unless that costs more than ``lane_m`` of path.
+
+    Parameters
+    ----------
+    lane_of : (candidates,) int
+        The lane of each candidate, -1 outside lanes; a lane's photos are consecutive rows.
+    shots : (n,) int
+        The candidate index of each shot (node k + 1).
+    lane_m : float
+        Metres of path that breaking a lane is worth.
+    """
+    shots = np.asarray(shots, dtype=np.int64)
+    lane = lane_of[shots]
+    n = len(shots) + 1
+    cost = np.full((n, n), float(lane_m))
+    cost[0, :] = cost[:, 0] = 0.0
+    in_lane = np.flatnonzero(lane >= 0)
+    pos = {int(c): k for k, c in zip(in_lane, shots[in_lane])}
+    nxt = np.array([pos.get(int(c) + 1, -1) for c in shots[in_lane]], dtype=np.int64)
+    ok = nxt >= 0
+    a, b = in_lane[ok], nxt[ok]
+    same = lane[a] == lane[b]
+    a, b = a[same] + 1, b[same] + 1
+    cost[a, b] = cost[b, a] = 0.0
+    np.fill_diagonal(cost, 0.0)
+    return cost
 
 
 def plan_tour(dist, positions, reversal_m: float, step_cost=None) -> np.ndarray:

@@ -11,7 +11,7 @@ from coverplan.equipment.camera import Camera, check_positive
 from coverplan.equipment.margin import MARGINS
 from coverplan.errors import ParameterError, PlanningError
 from coverplan.flight.passing import PassRules
-from coverplan.flight.tour import DEFAULT_REAIM_STEPS, DEFAULT_REVERSAL_STEPS
+from coverplan.flight.tour import DEFAULT_LANE_STEPS, DEFAULT_REAIM_STEPS, DEFAULT_REVERSAL_STEPS
 from coverplan.shots.candidates import VIEW_TILTS
 from coverplan.shots.existing import ExistingShots
 from coverplan.shots.reconstructability import MatchRule
@@ -19,6 +19,7 @@ from coverplan.shots.selection import LP_TIME_LIMIT_S
 from coverplan.world.zones import Zones
 
 RULES = ("sfm", "thesis")
+SELECTIONS = ("shots", "lanes")
 FLY = ("through", "stop")
 DEFAULT_CEILING_M = 120.0  # EU (EASA open category), UK CAA, US FAA Part 107: 120 m / 400 ft above the ground
 
@@ -112,6 +113,19 @@ class PlanSettings:
     existing : ExistingShots or None
         Photos already taken (shots/existing.py): their views count toward every rule and the
         new flight takes only what they do not give.
+    selection : {"shots", "lanes"}
+        "shots" chooses photos one by one from every candidate viewpoint, then adds the views
+        and links SfM asks; "lanes" first chooses whole lanes (runs of photos along façades and
+        over roofs, one heading and gimbal pitch each, shots/lanes.py) and leaves single shots
+        to what no lane sees.
+    forward_overlap : float
+        Under "lanes": the share of the frame consecutive photos of a lane share, in [0.3, 0.95).
+    side_overlap : float
+        Under "lanes": the share of the frame neighbouring lanes (bands, roof strips) share,
+        in [0, 0.95).
+    lane_steps : float
+        Under "lanes": how much path the tour gives up to fly a lane's photos one after the
+        other, end to end, in typical steps.
     """
 
     gsd: float
@@ -142,6 +156,10 @@ class PlanSettings:
     reversal_steps: float = DEFAULT_REVERSAL_STEPS
     reaim_steps: float = DEFAULT_REAIM_STEPS
     existing: ExistingShots | None = None
+    selection: str = "shots"
+    forward_overlap: float = 0.7
+    side_overlap: float = 0.4
+    lane_steps: float = DEFAULT_LANE_STEPS
 
     def __post_init__(self):
         def put(name, value):
@@ -153,6 +171,15 @@ class PlanSettings:
             raise ParameterError(f"rule must be one of {', '.join(RULES)}, got {self.rule!r}")
         if self.fly not in FLY:
             raise ParameterError(f"fly must be one of {', '.join(FLY)}, got {self.fly!r}")
+        if self.selection not in SELECTIONS:
+            raise ParameterError(f"selection (--selection) must be one of {', '.join(SELECTIONS)}, "
+                                 f"got {self.selection!r}")
+        if not (np.isfinite(self.forward_overlap) and 0.3 <= self.forward_overlap < 0.95):
+            raise ParameterError(f"the forward overlap (--forward-overlap) must be a share in [0.3, 0.95), "
+                                 f"got {self.forward_overlap!r}")
+        if not (np.isfinite(self.side_overlap) and 0.0 <= self.side_overlap < 0.95):
+            raise ParameterError(f"the side overlap (--side-overlap) must be a share in [0, 0.95), "
+                                 f"got {self.side_overlap!r}")
         if self.view_tilts not in VIEW_TILTS:
             raise ParameterError(f"view tilts must be one of {', '.join(VIEW_TILTS)}, got {self.view_tilts!r}")
         if self.pose_margin not in MARGINS:
@@ -201,6 +228,9 @@ class PlanSettings:
             raise ParameterError(f"the re-aim cost (--reaim-cost) must be a number of steps >= 0, "
                                  f"got {self.reaim_steps!r}")
         put("reaim_steps", float(self.reaim_steps))
+        if not (np.isfinite(self.lane_steps) and self.lane_steps >= 0):
+            raise ParameterError(f"the lane cost (--lane-cost) must be a number of steps >= 0, got {self.lane_steps!r}")
+        put("lane_steps", float(self.lane_steps))
         if self.zone_margin is not None and not (np.isfinite(self.zone_margin) and self.zone_margin >= 0):
             raise ParameterError(f"the zone margin (--zone-margin) must be a number of metres >= 0, "
                                  f"got {self.zone_margin!r}")

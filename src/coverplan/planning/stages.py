@@ -43,7 +43,7 @@ from coverplan.flight.pathing import (
 )
 from coverplan.flight.route import Route, polyline_length
 from coverplan.flight.start import check_start, default_start
-from coverplan.flight.tour import plan_tour, reaim_costs, typical_step
+from coverplan.flight.tour import lane_costs, plan_tour, reaim_costs, typical_step
 from coverplan.flight.turning import add_turn_points
 from coverplan.planning.settings import (
     PlanSettings,
@@ -84,6 +84,8 @@ from coverplan.shots.reconstructability import (
     sharp_view_matrix,
     shot_links,
 )
+from coverplan.shots.lane_selection import select_lanes
+from coverplan.shots.lanes import NEAR_LANE_SHARE, Lanes, facade_lanes, roof_lanes, safe_lanes
 from coverplan.shots.framing import (
     CLOSE_SHARE,
     frame_fill,
@@ -194,6 +196,13 @@ class Problem:
     fixed: np.ndarray  # (k,) candidate indices of photos already taken (settings.existing)
     required: np.ndarray  # (k,) candidate indices every plan takes: the edge views (settings.edge_views)
     fill: np.ndarray  # (candidates, N_BINS) frame_fill of the candidates (framing.py); no columns without framed views
+    lanes: Lanes  # the lane photos: the first len(lanes) candidates (settings.selection "lanes")
+
+    def lane_of(self, n: int) -> np.ndarray:
+        """(n,) int: the lane of each of the first ``n`` candidates, -1 for those not in a lane."""
+        out = np.full(n, -1, dtype=np.int64)
+        out[:len(self.lanes)] = self.lanes.lane
+        return out
 
     @property
     def kept(self) -> np.ndarray:
@@ -216,6 +225,17 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
                 raise PlanningError(f"the target has no {' or '.join(classes)} surface")
     with progress.stage("reachability"):
         reach = reachability(scene, samples, limits)
+    lanes = Lanes.empty()
+    if settings.selection == "lanes":
+        with progress.stage("lanes"):
+            near = max(NEAR_LANE_SHARE * setup.standoff, 1.2 * (limits.security + setup.extra_clearance))
+            lanes = Lanes.empty()
+            for distance in (setup.standoff, near):  # near: courtyards and recesses the standoff does not fit
+                lanes = lanes.concat(facade_lanes(scene, camera, limits, distance, settings.forward_overlap,
+                                                  settings.side_overlap))
+            lanes = lanes.concat(roof_lanes(scene, samples, camera, limits, setup.standoff, settings.forward_overlap,
+                                            settings.side_overlap))
+            lanes = safe_lanes(scene, lanes, limits, setup.extra_clearance)
     with progress.stage("candidate viewpoints"):
         cands = facade_rings(scene, camera, limits, setup.standoff, setup.spacing,
                              view_tilts=settings.view_tilts).concat(
@@ -225,6 +245,7 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
             cands = cands.concat(edge_views(samples, limits, camera, setup.standoff))
         cands = keep_safe(scene, cands.concat(under_overhangs(samples, limits, camera, setup.extra_clearance)),
                           limits, setup.extra_clearance)
+        cands = lanes.cands.concat(cands)  # lane photos first: Problem.lane_of
 
     cover = CoverProblem(scene, camera, limits, samples, cands)
     with progress.stage("visibility matrix", total=len(cands), unit="cam") as update:
@@ -276,8 +297,8 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
                                   setup.start, margin=setup.extra_clearance, spacing=h)
     required = required_edge_views(cover.cands, camera, setup.standoff, vis.getnnz(axis=1),
                                    taken=cover.cands.subset(fixed)) \
-        if settings.edge_views else np.zeros(0, dtype=np.int64)
-    return Problem(samples, reach, cover, vis, rays, fine_job, links_job, lattice_job, fixed, required, fill)
+        if settings.edge_views and settings.selection == "shots" else np.zeros(0, dtype=np.int64)
+    return Problem(samples, reach, cover, vis, rays, fine_job, links_job, lattice_job, fixed, required, fill, lanes)
 
 
 @dataclass(frozen=True)
@@ -290,6 +311,11 @@ class Selection:
     framing: int
     lp_bound: float | None
     lp_stopped: bool  # the LP reached its time limit (selection.Selection.lp_stopped)
+    lane_rows: np.ndarray  # (k,) int candidate indices of the lane photos chosen (settings.selection "lanes")
+
+    def keep(self, problem: Problem) -> np.ndarray:
+        """(k,) candidate indices no later stage drops: the problem's kept ones and the lanes."""
+        return np.union1d(problem.kept, self.lane_rows)
 
 
 def select_shots(problem: Problem, setup: Setup, progress: Progress) -> Selection:
@@ -304,10 +330,15 @@ def select_shots(problem: Problem, setup: Setup, progress: Progress) -> Selectio
     # not patched with them after.
     wanted = sharp_view_matrix(cam, pt, inc, len(cands), len(samples)) \
         if lean(match) and match.sharp_views else None
+    lane_rows = np.zeros(0, dtype=np.int64)
+    if len(problem.lanes):
+        with progress.stage("lane selection"):
+            lane_rows = select_lanes(problem.vis, problem.lane_of(len(cands)), samples.area, settings.min_views)
+    preset = np.union1d(problem.kept, lane_rows)
     with progress.stage("view selection", unit="shot") as update:
         selection = select_views(problem.vis, problem.rays, settings.min_views, setup.min_triangulation_deg,
                                  lp_time_limit=settings.lp_time_limit, progress=update, max_pair_deg=setup.max_pair_deg,
-                                 preset=problem.kept if len(problem.kept) else None, wanted=wanted)
+                                 preset=preset if len(preset) else None, wanted=wanted)
     chosen = selection.chosen
     covering = len(chosen)
     if match is not None and match.sharp_views and len(chosen):
@@ -328,7 +359,7 @@ def select_shots(problem: Problem, setup: Setup, progress: Progress) -> Selectio
         reason = problem.reach.reason
         raise PlanningError("no safe viewpoint can image any part of the target: "
                             + (reason[0] if len(reason) and reason[0] else "check the security distance and GSD"))
-    return Selection(chosen, covering, sharpening, framing, selection.lp_bound, selection.lp_stopped)
+    return Selection(chosen, covering, sharpening, framing, selection.lp_bound, selection.lp_stopped, lane_rows)
 
 
 @dataclass(frozen=True)
@@ -392,7 +423,7 @@ def close_gaps(problem: Problem, selection: Selection, setup: Setup, progress: P
                 added = cover.cands.subset(np.arange(len(fill), len(cover.cands)))
                 fill = np.vstack([fill, _fill_of(cover.scene, added, setup)])
             chosen = _drop_redundant(cover, closer, chosen, check.covered, coarse, vis, match, fill,
-                                     keep=problem.kept)
+                                     keep=selection.keep(problem))
             check = closer.kept(check, chosen)
         dropped = complete - len(chosen)
         check_links = 0
@@ -407,7 +438,7 @@ def close_gaps(problem: Problem, selection: Selection, setup: Setup, progress: P
         trimmed = 0
         if lean(match) and len(chosen) > 2:
             before = len(chosen)
-            chosen = _trim(cover, closer, chosen, check, coarse, vis, match, fill, problem.kept)
+            chosen = _trim(cover, closer, chosen, check, coarse, vis, match, fill, selection.keep(problem))
             trimmed = before - len(chosen)
             if trimmed:
                 check = closer.kept(check, chosen)
@@ -473,6 +504,8 @@ def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progr
         reversal_m, reaim_m = settings.reversal_steps * step, settings.reaim_steps * step
         heading, pitch = np.concatenate([[0.0], shots.heading_deg]), np.concatenate([[0.0], shots.pitch_deg])
         reaim = reaim_costs(heading, pitch, reaim_m)
+        if len(problem.lanes):
+            reaim = reaim + lane_costs(problem.lane_of(len(cands)), new, settings.lane_steps * step)
         order = plan_tour(closure, specials, reversal_m, reaim)
     stops = Stops(heading, pitch,
                   float(setup.start[2] - limits.ground_at(setup.start[None, :2])[0]))
@@ -541,6 +574,10 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
     params["reversal_steps"] = settings.reversal_steps
     params["reversal_m"] = round(flight.reversal_m, 3)
     params["reaim_steps"] = settings.reaim_steps
+    params["selection"] = settings.selection
+    if settings.selection == "lanes":
+        params.update(forward_overlap=settings.forward_overlap, side_overlap=settings.side_overlap,
+                      lane_steps=settings.lane_steps)
     params["reaim_m"] = round(flight.reaim_m, 3)
     if settings.view_tilts != "varied":
         params["view_tilts"] = settings.view_tilts
@@ -569,6 +606,8 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
         "sharp_view_shots": int(selection.sharpening + gaps.fine_sharp),
         "framed_view_shots": int(selection.framing),
         "edge_view_shots": int(len(np.intersect1d(chosen, problem.required))),
+        "lane_shots": int(np.count_nonzero(chosen < len(problem.lanes))),
+        "lanes": int(len(np.unique(problem.lanes.lane[chosen[chosen < len(problem.lanes)]]))),
         "linking_shots": int(max(picked - selection.covering - selection.sharpening - selection.framing, 0)
                              + gaps.check_links),
         "repair_shots": int(max(gaps.complete - picked - gaps.fine_sharp, 0)),

@@ -1,0 +1,197 @@
+"""Lanes (shots/lanes.py, shots/lane_selection.py) on scenes whose answer we know, the tour that
+flies them end to end, and ``--selection lanes`` plans re-checked by independent ray casts and
+distance queries; random scenes in test_properties.py."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+import trimesh
+
+from coverplan import evaluate, get_camera, load_scene, plan
+from coverplan.cli import main
+from coverplan.flight.lanes import route_step_shape
+from coverplan.flight.tour import lane_costs
+from coverplan.planning.settings import PlanSettings
+from coverplan.planning.stages import resolve
+from coverplan.shots.lane_selection import select_lanes
+from coverplan.shots.lanes import (
+    LANE_SOURCE,
+    Lanes,
+    band_heights,
+    facade_lanes,
+    lane_steps,
+    roof_lanes,
+    safe_lanes,
+)
+from coverplan.shots.candidates import Candidates
+from coverplan.shots.surface import sample_surface
+from coverplan.world.scene import scene_from_meshes
+from tests.helpers import MESHES, box, gsd_for
+from tests.independent import images, polyline_min_distance
+
+SECURITY = 3.0
+
+
+def setup_for(scene, **options):
+    camera = get_camera("mavic3e")
+    return resolve(scene, camera, PlanSettings(gsd=0.004, security=SECURITY, **options))
+
+
+def test_facade_lanes_face_each_wall_square_on_from_the_standoff():
+    """A 15 x 15 x 8 m box: one lane per wall, each photo the standoff out from its wall and
+    level, facing it, consecutive photos one step apart with one heading, past both ends."""
+    scene = scene_from_meshes([box(0, 0, 0, 15, 15, 8)])
+    setup = setup_for(scene)
+    d = setup.standoff
+    lanes = facade_lanes(scene, setup.camera, setup.limits, d)
+    step, _band = lane_steps(setup.camera, d)
+    assert lanes.count == 4 and np.all(lanes.cands.source == LANE_SOURCE)
+    p, heading = lanes.cands.positions, lanes.cands.heading_deg
+    np.testing.assert_allclose(lanes.cands.pitch_deg, 0.0, atol=1e-9)
+    # heading 0 looks north (+y): those photos fly the standoff south of the south wall, and so on.
+    line = {0.0: (1, -d), 90.0: (0, -d), 180.0: (1, 15.0 + d), 270.0: (0, 15.0 + d)}
+    seen = 0
+    for h, (axis, at) in line.items():
+        facing = np.abs((heading - h + 180.0) % 360.0 - 180.0) < 1e-6
+        np.testing.assert_allclose(p[facing, axis], at, atol=1e-6)
+        seen += facing.sum()
+    assert seen == len(lanes)
+    width = setup.camera.footprint(d)[0]
+    for k in range(lanes.count):
+        run = p[lanes.lane == k]
+        steps = np.linalg.norm(np.diff(run, axis=0), axis=1)
+        assert steps.max() <= step + 1e-9 and len(np.unique(heading[lanes.lane == k].round(6))) == 1
+        along = np.ptp(run[:, :2], axis=0).max()
+        assert along > 15.0 + 0.4 * width  # it runs past both corners
+    assert polyline_min_distance(p, scene.meshes, 0.5) >= 0.7 * d - 1e-6
+
+
+def test_band_heights_cover_the_wall_from_foot_to_top():
+    """Bands no further apart than asked, evenly spread, their frames reaching the wall's foot
+    and top, none below the minimum altitude."""
+    z = band_heights(0.0, 30.0, 10.0, 6.0, 3.0)
+    assert np.all(np.diff(z) <= 6.0 + 1e-9) and np.allclose(np.diff(z), np.diff(z)[0])
+    assert z[0] - 5.0 <= 0.0 + 1.0 + 1e-9 and z[-1] + 5.0 >= 30.0 - 1.0 - 1e-9
+    assert band_heights(0.0, 6.0, 10.0, 6.0, 3.0).tolist() == [3.0]  # one band fits; lifted to the floor
+
+
+def test_courtyard_lanes_face_the_courtyard_walls():
+    """Near lanes fly inside a courtyard the standoff does not fit, looking at its walls."""
+    scene = load_scene(MESHES / "courtyard.obj")
+    setup = setup_for(scene)
+    near = 0.5 * setup.standoff
+    lanes = facade_lanes(scene, setup.camera, setup.limits, near)
+    p = lanes.cands.positions
+    inside = (p[:, 0] > 18) & (p[:, 0] < 32) & (p[:, 1] > 18) & (p[:, 1] < 32)
+    assert inside.sum() >= 8
+    look = np.column_stack([np.sin(np.radians(lanes.cands.heading_deg)), np.cos(np.radians(lanes.cands.heading_deg))])
+    away = np.einsum("ij,ij->i", look[inside], p[inside, :2] - [25.0, 25.0])
+    assert np.all(away > 0)  # from inside the courtyard, every photo looks out at a wall
+    assert polyline_min_distance(p[inside], scene.meshes, 0.5) >= 0.7 * near - 1e-6
+
+
+def test_roof_lanes_fly_a_nadir_grid_the_standoff_over_the_roof():
+    scene = scene_from_meshes([box(0, 0, 0, 20, 10, 6)])
+    setup = setup_for(scene)
+    samples = sample_surface(scene, setup.spacing)
+    lanes = roof_lanes(scene, samples, setup.camera, setup.limits, setup.standoff)
+    c = lanes.cands
+    assert lanes.count >= 1 and np.all(c.pitch_deg == -90.0)
+    np.testing.assert_allclose(c.positions[:, 2], 6.0 + setup.standoff, atol=1e-6)
+    assert len(np.unique(c.heading_deg.round(6))) == 1
+    # lanes along the roof's long side (x): the heading is east or west
+    assert abs(np.sin(np.radians(c.heading_deg[0]))) > 0.99
+    assert c.positions[:, 0].min() < 2.0 and c.positions[:, 0].max() > 18.0
+
+
+def test_safe_lanes_cut_a_lane_where_a_photo_is_not_safe():
+    lanes = Lanes(Candidates(np.array([[0, -9, 5], [5, -9, 5], [10, -9, 5], [15, -9, 5.0]]), np.zeros(4), np.zeros(4),
+                             np.full(4, LANE_SOURCE, np.int8)), np.zeros(4, dtype=np.int64))
+    scene = scene_from_meshes([box(0, 0, 0, 15, 15, 8)], [box(4, -10, 0, 6, -8, 10)])  # a pole at the second
+    setup = setup_for(scene)
+    kept = safe_lanes(scene, lanes, setup.limits, setup.extra_clearance)
+    assert kept.cands.positions[:, 0].tolist() == [0.0, 10.0, 15.0]
+    assert kept.lane.tolist() == [0, 1, 1]  # split where the pole's photo was dropped
+
+
+def test_select_lanes_takes_the_lane_and_trims_its_spare_end():
+    """Four samples; lane 0 (three photos) sees samples 0-2 three times over and its last
+    photo sample 3 too; two singles see sample 3. min_views 2: the lane is taken, and an end
+    photo is kept only while a sample needs it."""
+    rows = [[1, 1, 1, 0], [1, 1, 1, 0], [1, 1, 1, 1], [0, 0, 0, 1], [0, 0, 0, 1]]
+    vis = sp.csr_matrix(np.array(rows, dtype=float))
+    lane_of = np.array([0, 0, 0, -1, -1])
+    chosen = select_lanes(vis, lane_of, np.ones(4), min_views=2)
+    # The first photo is spare (samples 0-2 keep two views without it); the last is not.
+    assert chosen.tolist() == [1, 2]
+    # Without the lane's last photo, a single does better for sample 3: nothing of the lane's end is kept for it.
+    vis_b = sp.csr_matrix(np.array([[1, 1, 1, 0], [1, 1, 1, 0], [1, 1, 1, 0], [0, 0, 0, 1], [0, 0, 0, 1]], float))
+    assert select_lanes(vis_b, lane_of, np.ones(4), min_views=2).tolist() == [1, 2]
+
+
+def test_lane_costs_free_only_between_consecutive_photos_of_a_lane():
+    lane_of = np.array([0, 0, 0, 1, 1, -1])
+    shots = np.array([2, 0, 1, 4, 3, 5])  # node k + 1 is shot k
+    cost = lane_costs(lane_of, shots, 7.0)
+    free = {(1, 3), (3, 2), (4, 5)}  # candidates 2-1, 0-1, 3-4 as nodes (1-based)
+    for a in range(1, 7):
+        for b in range(1, 7):
+            want = 0.0 if a == b or (a, b) in free or (b, a) in free else 7.0
+            assert cost[a, b] == want, (a, b)
+    assert np.all(cost[0] == 0) and np.all(cost[:, 0] == 0)
+
+
+@pytest.fixture(scope="module")
+def gabled_lanes():
+    scene = load_scene(MESHES / "gabled_house.obj")
+    camera = get_camera("mavic3e")
+    return scene, plan(scene, camera, gsd=0.004, security=SECURITY, selection="lanes"), \
+        plan(scene, camera, gsd=0.004, security=SECURITY)
+
+
+def test_lanes_plan_is_safe_and_covered_by_independent_checks(gabled_lanes):
+    scene, route, _shots = gabled_lanes
+    ev = evaluate(route, scene)  # every 0.25 m on samples the planner never saw
+    assert ev.safe and ev.coverage_pct >= 99.5
+    assert ev.metrics["shot_graph"]["components"] == 1
+    assert polyline_min_distance(route.positions, scene.meshes, SECURITY / 10) >= SECURITY
+    # Views per sample counted with plain numpy (no Embree, no shared code).
+    s = ev.samples
+    triangles = np.vstack([m.triangles for m in scene.meshes])
+    taken = route.flown_positions()
+    views = np.zeros(len(s), dtype=int)
+    for k in route.shots:
+        views += images(taken[k], route.heading_deg[k], route.pitch_deg[k], route.camera, s.points, s.normals,
+                        triangles, route.d_opt, 70.0, offset=scene.epsilon * 4)
+    np.testing.assert_array_equal(views, ev.views)
+    assert (views[ev.covered] >= 2).all()
+
+
+def test_lanes_are_flown_end_to_end(gabled_lanes):
+    """The façade lanes' photos follow one another: runs of photos one lane step apart with one
+    heading, making the flight smoother than the shot-by-shot plan of the same house."""
+    _scene, route, shots = gabled_lanes
+    p = route.positions[route.shots]
+    h, pitch = route.heading_deg[route.shots], route.pitch_deg[route.shots]
+    same = (np.abs((np.diff(h) + 180) % 360 - 180) < 1e-6) & (np.abs(np.diff(pitch)) < 1e-6)
+    level_runs = same & (np.abs(pitch[1:]) < 1e-6) & (np.abs(np.diff(p[:, 2])) < 1e-6)
+    assert level_runs.sum() >= 8
+    assert route_step_shape(route)[0] > route_step_shape(shots)[0]
+    assert route.shot.sum() <= shots.shot.sum() * 1.1
+
+
+def test_selection_on_the_command_line(tmp_path, capsys):
+    out = tmp_path / "house.json"
+    code = main(["plan", str(MESHES / "gabled_house.obj"), "--camera", "mavic3e", "--gsd", "0.004", "--security", "3",
+                 "--selection", "lanes", "--forward-overlap", "0.75", "-o", str(out), "-q"])
+    assert code == 0 and out.exists()
+    for bad in (["--selection", "rows"], ["--forward-overlap", "0.99"], ["--side-overlap", "-0.1"]):
+        try:
+            code = main(["plan", str(MESHES / "gabled_house.obj"), "--camera", "mavic3e", "--gsd", "0.004",
+                         "--security", "3", *bad, "-o", str(tmp_path / "x.json"), "-q"])
+        except SystemExit as exc:  # argparse's own refusal
+            code = exc.code
+        err = capsys.readouterr().err.strip().splitlines()
+        assert code == 2 and len(err) == 1 and "Traceback" not in err[0], bad
