@@ -40,7 +40,7 @@ from coverplan.flight.passing import camera_timing, fly_through
 from coverplan.flight.route import Route
 from coverplan.flight.turning import MIN_LEG_M
 from coverplan.geometry.orientation import heading_change_deg
-from coverplan.planning import stages
+from coverplan.planning import assembly
 from coverplan.runs import run_offsets
 from coverplan.sfm.colmap import SPATIAL_NEIGHBOURS
 from plan_scenes import SCENES
@@ -87,12 +87,12 @@ def bridge_turns(route: Route, max_turn_deg: float) -> Route:
 @contextmanager
 def bridged_planner(max_turn_deg: float):
     """plan() with the bridging in front of its turn points."""
-    original = stages.add_turn_points
-    stages.add_turn_points = lambda route, share: original(bridge_turns(route, max_turn_deg), share)
+    original = assembly.add_turn_points
+    assembly.add_turn_points = lambda route, share: original(bridge_turns(route, max_turn_deg), share)
     try:
         yield
     finally:
-        stages.add_turn_points = original
+        assembly.add_turn_points = original
 
 
 def same_photos(bridged: Route, default: Route) -> bool:

@@ -438,7 +438,7 @@ def test_overhang_undersides_are_seen_as_squarely_as_the_gimbal_allows(monkeypat
     points and ray casts; without them the plan sees it at a slant."""
     import trimesh
 
-    from coverplan.planning import stages
+    from coverplan.planning import problem as problem_stage
     from coverplan.shots.candidates import Candidates
     from coverplan.shots.repair import GapCloser
     target = trimesh.boolean.union([box(0, 0, 0, 6, 6, 9.5), box(-3, -3, 9, 9, 9, 13)], engine="manifold")
@@ -460,7 +460,7 @@ def test_overhang_undersides_are_seen_as_squarely_as_the_gimbal_allows(monkeypat
     monkeypatch.setattr(GapCloser, "sharpen", lambda self, chosen, views, kinds=None: chosen)
     coarse = _best_incidence(plan(scene, camera, gsd=0.004, security=3.0), mesh, points, normals)
     assert np.percentile(coarse, 90) > 44.0, np.percentile(coarse, [50, 90])
-    monkeypatch.setattr(stages, "under_overhangs", lambda *a, **k: Candidates.empty())
+    monkeypatch.setattr(problem_stage, "under_overhangs", lambda *a, **k: Candidates.empty())
     slanted = _best_incidence(plan(scene, camera, gsd=0.004, security=3.0), mesh, points, normals)
     assert np.percentile(slanted, 90) > 45.0 and np.median(slanted) > 40.0, np.percentile(slanted, [50, 90])
 
@@ -496,13 +496,13 @@ def test_pieces_are_joined_through_the_chains_already_added():
     start = np.array([0, 1, 2, 3, 4, 5])
     lean = connect_shots(None, None, None, start, MatchRule(min_neighbours=1, link_test="samples"), links=links)
     assert sorted(lean.tolist()) == [0, 1, 2, 3, 4, 5, p, z]
-    # the other link tests keep the classic chains (stages.lean)
+    # the other link tests keep the classic chains (planning.selecting.lean)
     classic = connect_shots(None, None, None, start, MatchRule(min_neighbours=1), links=links)
     assert sorted(classic.tolist()) == [0, 1, 2, 3, 4, 5, p, r, s]
 
 
 def test_lean_plan_under_the_samples_link_test_keeps_its_claims():
-    """Gabled house, ``--link-test samples`` (the lean selection, stages.lean): fewer photos than
+    """Gabled house, ``--link-test samples`` (the lean selection, planning.selecting.lean): fewer photos than
     the default plan, and the evaluator, on samples of its own, finds the coverage, the sharp
     views, every photo's two neighbours and no photo the links hang on, judged sample by sample."""
     from coverplan import load_scene

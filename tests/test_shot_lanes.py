@@ -14,7 +14,7 @@ from coverplan.cli import main
 from coverplan.flight.lanes import route_step_shape
 from coverplan.flight.tour import lane_costs
 from coverplan.planning.settings import PlanSettings
-from coverplan.planning.stages import resolve
+from coverplan.planning.setup import resolve
 from coverplan.shots.lane_selection import select_lanes
 from coverplan.shots.lanes import (
     LANE_SOURCE,

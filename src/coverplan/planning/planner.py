@@ -1,8 +1,9 @@
 """plan(): scene + camera + detail + security distance -> one safe flight covering the target.
 
-The stages (DESIGN.md's pipeline, :mod:`coverplan.planning.stages`): surface samples ->
-reachability -> candidate viewpoints -> visibility matrix -> framing -> view selection -> closing the
-gaps -> flight graph -> tour -> legs -> Route.
+The stages, one module each: the settings resolved (``setup``) -> the problem: surface samples,
+reachability, lanes and candidate viewpoints, visibility (``problem``) -> the shots chosen
+(``selecting``) -> the gaps closed on the check samples (``gaps``) -> the flight: lattice,
+Dijkstra, tour, legs, battery flights (``flying``) -> the Route (``assembly``).
 """
 
 from __future__ import annotations
@@ -16,14 +17,12 @@ from coverplan.equipment.drones import DroneProfile
 from coverplan.equipment.flighttime import FlightModel
 from coverplan.flight.route import Route
 from coverplan.planning.settings import PlanSettings
-from coverplan.planning.stages import (
-    build_problem,
-    close_gaps,
-    fly,
-    make_route,
-    resolve,
-    select_shots,
-)
+from coverplan.planning.assembly import make_route
+from coverplan.planning.flying import fly
+from coverplan.planning.gaps import close_gaps
+from coverplan.planning.problem import build_problem
+from coverplan.planning.selecting import select_shots
+from coverplan.planning.setup import resolve
 from coverplan.progress import Progress
 
 

@@ -56,7 +56,7 @@ class MatchRule:
 
     @property
     def lean(self) -> bool:
-        """Whether plans under this rule are chosen lean (``stages.lean``): under the "samples"
+        """Whether plans under this rule are chosen lean (``planning.selecting.lean``): under the "samples"
         link test only."""
         return self.link_test == "samples"
 
