@@ -1,0 +1,359 @@
+"""Arguments shared by the subcommands (scene, camera, drone, planning, zones, simulate, exports) and their readers."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from coverplan.equipment.camera import PRESETS, Camera, check_positive, get_camera
+from coverplan.equipment.drones import get_drone
+from coverplan.equipment.flighttime import FlightModel
+from coverplan.errors import ParameterError
+from coverplan.flight.missions import mission_to_route
+from coverplan.flight.tour import DEFAULT_LANE_STEPS, DEFAULT_REAIM_STEPS, DEFAULT_REVERSAL_STEPS
+from coverplan.io import read_mission
+from coverplan.io.load import load_scene
+from coverplan.io.qgc import PX4_MISSION_ITEMS
+from coverplan.planning.settings import DEFAULT_CEILING_M, LP_TIME_LIMIT_S, SELECTIONS
+from coverplan.sfm.colmap import GLOBAL_MAPPING_ABOVE, MAX_FEATURES, SPATIAL_NEIGHBOURS
+from coverplan.shots.reconstructability import LINK_TESTS, MatchRule
+from coverplan.world.pointcloud import parse_classes
+
+
+class Parser(argparse.ArgumentParser):
+    """argparse with one-line errors and exit status 2."""
+
+    def error(self, message):
+        sys.stderr.write(f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+        sys.exit(2)
+
+
+def add_scene_args(p, targets_positional: bool):
+    if targets_positional:
+        p.add_argument("targets", nargs="+", metavar="TARGET", help="target mesh file(s)")
+    else:
+        p.add_argument("--target", "--targets", dest="targets", nargs="+", required=True, metavar="TARGET",
+                       help="target mesh file(s)")
+    p.add_argument("--obstacles", nargs="+", default=[], metavar="MESH", help="obstacle mesh file(s)")
+    p.add_argument("--units", default=None, choices=["m", "cm", "mm", "ft", "in"],
+                   help="units of the mesh files (default: the CRS's unit, else m)")
+    p.add_argument("--ground", type=float, default=None, metavar="Z",
+                   help="ground height in metres (default: lowest point of the target)")
+    p.add_argument("--terrain", default=None, metavar="DTM",
+                   help="ground heights as a raster (GeoTIFF, any CRS; heights in the models' height system): "
+                        "the minimum altitude follows it (needs coverplan[terrain])")
+    p.add_argument("--target-names", nargs="+", default=None, metavar="NAME",
+                   help="in multi-object target files, the objects that are targets (others are obstacles)")
+    p.add_argument("--up-axis", choices=["y", "z"], default=None,
+                   help="up axis of the mesh files (default z; glTF/GLB default y)")
+    p.add_argument("--building", default=None, metavar="ID",
+                   help="CityGML/CityJSON: id of the target building (the others nearby become obstacles)")
+    p.add_argument("--lod", type=int, default=None, help="CityGML/CityJSON: level of detail (default: highest)")
+    p.add_argument("--context-radius", type=float, default=None, metavar="M",
+                   help="CityGML/CityJSON: city objects within this distance become obstacles (default 150)")
+    p.add_argument("--crs", default=None, metavar="EPSG:XXXX",
+                   help="projected CRS of mesh coordinates that carry none (for geographic exports)")
+    p.add_argument("--geo-origin", nargs=3, type=float, default=None, metavar=("LAT", "LON", "H"),
+                   help="or: the geodetic position of the mesh frame's origin (x east, y north, z up)")
+    p.add_argument("--height-attribute", default=None, metavar="NAME",
+                   help="footprints (GeoJSON, GeoPackage, Shapefile): the attribute with each building's height in m")
+    p.add_argument("--height", type=float, default=None, metavar="M",
+                   help="footprints: the height of those without the attribute (or of all)")
+    p.add_argument("--roof-attribute", default=None, metavar="NAME",
+                   help="footprints: ridge height above the eaves in m, for a gable roof (default flat)")
+    p.add_argument("--obstacle-points", nargs="+", default=[], metavar="CLOUD",
+                   help="LAS/LAZ/PLY point clouds (trees, wires, ...) in the meshes' coordinates, as obstacles")
+    p.add_argument("--points-resolution", type=float, default=0.5, metavar="M",
+                   help="voxel size the point clouds are turned into obstacles at (default 0.5)")
+    p.add_argument("--point-classes", default=None, metavar="C,C,...",
+                   help="LAS classes to keep, e.g. 3,4,5,14 (default: all but ground 2 and noise 7, 18)")
+
+
+def scene_from_args(args):
+    return load_scene(args.targets, args.obstacles, units=args.units, ground=args.ground,
+                      target_names=args.target_names, up_axis=args.up_axis, building=args.building,
+                      lod=args.lod, context_radius=args.context_radius, crs=args.crs,
+                      geodetic_origin=args.geo_origin, obstacle_points=args.obstacle_points,
+                      points_resolution=args.points_resolution, point_classes=parse_classes(args.point_classes),
+                      height_attribute=args.height_attribute, height=args.height, roof_attribute=args.roof_attribute,
+                      terrain=args.terrain)
+
+
+def camera_from_args(args) -> Camera:
+    drone = drone_from_args(args)
+    if args.camera and any(v is not None for v in (args.sensor_mm, args.focal_mm, args.image_px)):
+        raise ParameterError("give either --camera or --sensor-mm/--focal-mm/--image-px, not both")
+    if drone is not None and (args.camera or args.sensor_mm is not None):
+        raise ParameterError(f"--drone {drone.name} brings its camera ({drone.camera.name}); leave out --camera "
+                             "and --sensor-mm/--focal-mm/--image-px")
+    if drone is not None:
+        return drone.camera
+    if args.camera:
+        return get_camera(args.camera)
+    if args.sensor_mm is None or args.focal_mm is None or args.image_px is None:
+        raise ParameterError("give a camera: --camera PRESET, or all of --sensor-mm W H --focal-mm F "
+                             f"--image-px W H (presets: {', '.join(sorted(PRESETS))}), or a --drone")
+    return Camera(args.sensor_mm[0], args.sensor_mm[1], args.focal_mm, args.image_px[0], args.image_px[1])
+
+
+def drone_from_args(args):
+    name = getattr(args, "drone", None)
+    return get_drone(name) if name else None
+
+
+def flight_model_from_args(args):
+    """The flight-time model: the drone's (at --speed if given), else generic at --speed."""
+    drone = drone_from_args(args)
+    speed = None if args.speed is None else check_positive("--speed", args.speed)
+    model = drone.flight_model(speed) if drone is not None else FlightModel(cruise_speed=speed or 5.0)
+    if getattr(args, "shot_seconds", None) is not None:  # export has no photos to time
+        from dataclasses import replace
+        if not args.shot_seconds >= 0:
+            raise ParameterError(f"--shot-seconds must be >= 0, got {args.shot_seconds}")
+        model = replace(model, photo_seconds=float(args.shot_seconds))
+    return model
+
+
+def export_options(args) -> dict:
+    return {"firmware": args.firmware, "speed": flight_model_from_args(args).cruise_speed, "drone": drone_from_args(args),
+            "wpml_heights": args.wpml_heights}
+
+
+def mission_route(args, scene):
+    """A QGroundControl / Mission Planner / Litchi mission as a route in the scene's frame."""
+    missing = [flag for flag, v in (("--gsd", args.gsd), ("--security", args.security)) if v is None]
+    if missing or not (args.camera or args.sensor_mm):
+        need = missing + ([] if (args.camera or args.sensor_mm) else ["--camera"])
+        raise ParameterError(f"{args.route} is a mission from another app: give {', '.join(need)} "
+                             "(the camera it flies, the GSD and security distance to judge it by)")
+    route = mission_to_route(read_mission(args.route), scene, camera_from_args(args), check_positive("--gsd", args.gsd),
+                             check_positive("--security", args.security))
+    for note in route.extra["notes"]:  # what the file left open, and how it was read
+        print(f"coverplan: {note}", file=sys.stderr)
+    return route
+
+
+def add_camera_args(p):
+    p.add_argument("--camera", default=None, metavar="PRESET",
+                   help=f"camera preset: {', '.join(sorted(PRESETS))} (see 'coverplan cameras')")
+    p.add_argument("--sensor-mm", nargs=2, type=float, default=None, metavar=("W", "H"))
+    p.add_argument("--focal-mm", type=float, default=None, metavar="F")
+    p.add_argument("--image-px", nargs=2, type=float, default=None, metavar=("W", "H"))
+
+
+def plan_options(args, formats: list[str]) -> dict:
+    """planner.plan's keyword arguments from the planning flags ``plan`` and ``batch`` share;
+    ``formats``: the exports asked (``parse_formats(args.export)``)."""
+    items = args.max_mission_items
+    if items is None and "qgc" in formats and args.firmware == "px4":
+        items = PX4_MISSION_ITEMS  # a longer flight would be refused at export
+    return dict(gsd=args.gsd, security=args.security, min_views=args.min_views,
+                min_triangulation_deg=args.min_triangulation_deg, rule=args.rule, match=match_rule_from_args(args),
+                max_incidence_deg=args.max_incidence_deg, min_altitude=args.min_altitude, max_altitude=args.max_altitude,
+                spacing=args.spacing,
+                gimbal_pitch_range_deg=gimbal_from_args(args), drone=drone_from_args(args), flight_model=flight_model_from_args(args),
+                max_flight_min=args.max_flight_min, max_mission_items=items,
+                lp_time_limit=args.lp_time_limit, surface_classes=args.only, pose_margin=args.margin,
+                keep_out=tuple(args.keep_out), keep_in=tuple(args.keep_in), zone_margin=args.zone_margin,
+                fly=args.fly, view_tilts=args.view_tilts,
+                edge_views=None if args.edge_views is None else args.edge_views == "on",
+                reversal_steps=args.reversal_cost, reaim_steps=args.reaim_cost,
+                selection=args.selection, forward_overlap=args.forward_overlap, side_overlap=args.side_overlap,
+                lane_steps=args.lane_cost,
+                max_memory=None if args.max_memory_gb is None
+                else check_positive("--max-memory-gb", args.max_memory_gb) * 1e9)
+
+
+ROUTE_CEILING = object()  # evaluate's default: the ceiling the route records
+
+
+def parse_ceiling(text: str) -> float | None:
+    if text.strip().lower() == "none":
+        return None
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected metres or 'none', got {text!r}") from None
+
+
+def gimbal_from_args(args):
+    """The gimbal range given on the command line (None: the drone's, or -90..30)."""
+    if args.gimbal_min_deg is None and args.gimbal_max_deg is None:
+        return None
+    drone = drone_from_args(args)
+    lo, hi = drone.gimbal_pitch_deg if drone is not None else (-90.0, 30.0)
+    return (lo if args.gimbal_min_deg is None else args.gimbal_min_deg,
+            hi if args.gimbal_max_deg is None else args.gimbal_max_deg)
+
+
+def match_rule_from_args(args):
+    """The sfm rule's settings from the command line (None: the defaults)."""
+
+    given = {k: v for k, v in (("max_pair_deg", args.max_pair_deg), ("min_overlap", args.min_overlap),
+                               ("min_neighbours", args.min_neighbours), ("sharp_views", args.sharp_views),
+                               ("framed_views", args.framed_views), ("link_test", args.link_test),
+                               ("braced", None if args.links is None else args.links == "braced"))
+             if v is not None}
+    if not given:
+        return None
+    if args.rule != "sfm":
+        flag = {"braced": "links"}.get(next(iter(given)), next(iter(given)))
+        raise ParameterError(f"--{flag.replace('_', '-')} belongs to --rule sfm")
+    return MatchRule(**given)
+
+
+def add_mapper_arg(p):
+    p.add_argument("--mapper", default="auto", choices=("auto", "incremental", "global"),
+                   help="COLMAP's incremental mapper or its global one (GLOMAP); auto (default): global above "
+                        f"{GLOBAL_MAPPING_ABOVE} photos, where the incremental one split flights that the global "
+                        "one kept whole")
+
+
+def add_simulate_args(p):
+    p.add_argument("--photo-width", type=int, default=1024, metavar="PX",
+                   help="width of the rendered photos (field of view kept; default 1024)")
+    p.add_argument("--conditions", default="field", choices=("ideal", "field", "harsh"),
+                   help="ideal: the planned poses, fixed light; field (default): the drone profile's GNSS/RTK, "
+                        "heading and gimbal error, moving sun and shadows, clouds, exposure, noise, blur; "
+                        "harsh: field plus plaster, brick, window grids, glass and roof tiles")
+    p.add_argument("--draws", type=int, default=3, metavar="N",
+                   help="flights drawn under the conditions; the verdict is the worst (default 3)")
+    p.add_argument("--matching", default="spatial", choices=("spatial", "covisible"),
+                   help="pairs matched in flights over 80 photos: spatial (default, COLMAP's spatial matcher on the "
+                        "photos' GNSS tags, as you would run it) or covisible (pairs whose rendered views overlap)")
+    p.add_argument("--neighbours", type=int, default=SPATIAL_NEIGHBOURS, metavar="N",
+                   help=f"spatial matching: each photo is matched with its N nearest (default {SPATIAL_NEIGHBOURS}; "
+                        "fewer match faster, for flights of many hundred photos)")
+    p.add_argument("--max-features", type=int, default=MAX_FEATURES, metavar="N",
+                   help=f"SIFT features per photo at most (default {MAX_FEATURES}, COLMAP's; fewer match and map "
+                        "faster)")
+    add_mapper_arg(p)
+    p.add_argument("--texture", default="noise", choices=("noise", "cells"),
+                   help="texture family under field/harsh conditions: noise (value noise) or cells (cellular stone)")
+    p.add_argument("--threads", type=int, default=-1, help="threads for SfM (default: all cores)")
+
+
+def add_planning_args(p):
+    """The camera and planning flags ``plan`` and ``batch`` share."""
+    add_camera_args(p)
+    p.add_argument("--gsd", type=float, required=True, metavar="M_PER_PX", help="target ground sampling distance")
+    p.add_argument("--security", type=float, required=True, metavar="M",
+                   help="security distance to keep from every mesh")
+    p.add_argument("--rule", choices=["sfm", "thesis"], default="sfm",
+                   help="sfm (default): plan for a reconstruction (docs/reconstruction.md); "
+                        "thesis: 2 views 5 deg apart, the thesis's rule, for comparison")
+    p.add_argument("--margin", choices=["field", "none"], default="field",
+                   help="field (default): judge frames and view-pair angles with the drone's own position, heading "
+                        "and gimbal error (docs/reconstruction.md); none: the rules as given")
+    p.add_argument("--fly", choices=["through", "stop"], default="through",
+                   help="through (default): take photos in passing where the turn, motion blur, the photo interval "
+                        "and the heading and gimbal turns allow it, and stop elsewhere (docs/flights.md); "
+                        "stop: stop at every waypoint. The photos are the same")
+    p.add_argument("--view-tilts", choices=["varied", "corners", "square"], default="varied",
+                   help="varied (default): candidate views square-on to the surface and tilted off it; corners: "
+                        "tilted only where the façade rings turn a corner; square: square-on only, so photos "
+                        "along a wall share one heading (docs/flights.md, \"Lanes\")")
+    p.add_argument("--edge-views", choices=["on", "off"], default=None,
+                   help="on (default under --rule sfm): a photo from the bisector of the two faces every frame width "
+                        "along each edge where the surface turns (a corner, an eave), seeing both faces alike "
+                        "(docs/reconstruction.md, \"Edge views\"); off (default under --rule thesis): without them")
+    p.add_argument("--reversal-cost", type=float, default=DEFAULT_REVERSAL_STEPS, metavar="STEPS",
+                   help=f"how much path the tour gives up to avoid one reversal (a photo where the flight turns back "
+                        f"by more than 90 deg and must stop), in typical steps between neighbouring photos (default "
+                        f"{DEFAULT_REVERSAL_STEPS:g}; 0: the shortest tour; docs/flights.md, \"The order\")")
+    p.add_argument("--reaim-cost", type=float, default=DEFAULT_REAIM_STEPS, metavar="STEPS",
+                   help=f"how much path the tour gives up to fly next to each other two photos whose camera need "
+                        f"not turn between them (heading within 10 deg, pitch within 5 deg), in typical steps "
+                        f"(default {DEFAULT_REAIM_STEPS:g}; 0: no preference)")
+    p.add_argument("--selection", choices=list(SELECTIONS), default="shots",
+                   help="shots (default): photos chosen one by one from every candidate view; lanes: whole runs of "
+                        "photos along façades and over roofs first, single shots only where no lane sees "
+                        "(docs/flights.md, \"Lanes\")")
+    p.add_argument("--forward-overlap", type=float, default=0.7, metavar="SHARE",
+                   help="lanes: share of the frame consecutive photos of a lane share (default 0.7)")
+    p.add_argument("--side-overlap", type=float, default=0.4, metavar="SHARE",
+                   help="lanes: share of the frame neighbouring lanes (bands, roof strips) share (default 0.4)")
+    p.add_argument("--lane-cost", type=float, default=DEFAULT_LANE_STEPS, metavar="STEPS",
+                   help=f"lanes: how much path the tour gives up to fly each lane end to end, in typical steps "
+                        f"(default {DEFAULT_LANE_STEPS:g})")
+    p.add_argument("--min-views", type=int, default=None, help="views per surface point (default 3; thesis rule 2)")
+    p.add_argument("--min-triangulation-deg", type=float, default=5.0)
+    p.add_argument("--max-pair-deg", type=float, default=None, metavar="DEG",
+                   help="sfm rule: widest view pair SfM is trusted to match (default 35)")
+    p.add_argument("--min-overlap", type=float, default=None, metavar="FRACTION",
+                   help="sfm rule: surface two linked photos share (default 0.3)")
+    p.add_argument("--min-neighbours", type=int, default=None,
+                   help="sfm rule: linked photos every photo needs (default 2)")
+    p.add_argument("--links", choices=["braced", "one-piece"], default=None,
+                   help="sfm rule: braced (default): no photo is the only link between two groups of photos; "
+                        "one-piece: the photos only need to link into one set (the rule before December 2026)")
+    p.add_argument("--link-test", choices=list(LINK_TESTS), default=None,
+                   help="sfm rule: how two photos' rays to the surface both see are judged: centroid (default): "
+                        "at the centroid of all of it; faces: face by face, each within 60 deg of both photos "
+                        "(links across a corner count only the faces both photos see squarely); samples: point "
+                        "by point, and the plan is chosen lean (fewer photos; experimental: three field draws on the "
+                        "gabled house and the chapel only, docs/reconstruction.md)")
+    p.add_argument("--sharp-views", type=int, default=None, metavar="N",
+                   help="sfm rule: views per surface point within 35 deg of its normal, or as near as any "
+                        "safe viewpoint gets plus 5 deg (default 1; 0: none asked)")
+    p.add_argument("--framed-views", type=int, default=None, metavar="N",
+                   help="sfm rule: views per surface point whose frame its face fills (25 %%, or most of the best "
+                        "any safe viewpoint gives), within 50 deg of its normal; towers and spires get views from "
+                        "closer in (default 0: none asked; try 2 for towers and spires)")
+    p.add_argument("--max-incidence-deg", type=float, default=70.0)
+    p.add_argument("--min-altitude", type=float, default=None, metavar="M",
+                   help="lowest flight height above the ground (default: the security distance)")
+    p.add_argument("--max-altitude", type=parse_ceiling, default=DEFAULT_CEILING_M, metavar="M|none",
+                   help=f"altitude ceiling above the ground under the drone (default {DEFAULT_CEILING_M:g} m, the EU, "
+                        "UK and US limit; 'none': no ceiling)")
+    add_zone_args(p)
+    p.add_argument("--drone", default=None, metavar="NAME",
+                   help="drone profile: camera, gimbal range, speeds, battery (see 'coverplan drones')")
+    p.add_argument("--max-flight-min", type=float, default=None, metavar="MIN",
+                   help="split the tour into flights of at most MIN minutes each, from the start back to it "
+                        "(default: the drone's usable flight time; without --drone one flight)")
+    p.add_argument("--max-mission-items", type=int, default=None, metavar="N",
+                   help="split the tour so that each flight's QGC plan / WPL file has at most N mission items "
+                        "(default: 500, PX4's limit, when plan exports a .plan for PX4; else no limit)")
+    p.add_argument("--gimbal-min-deg", type=float, default=None, help="lowest gimbal pitch (default: the drone's, else -90)")
+    p.add_argument("--gimbal-max-deg", type=float, default=None, help="highest gimbal pitch (default: the drone's, else 30)")
+    p.add_argument("--spacing", type=float, default=None, metavar="M",
+                   help="surface sample spacing (default d_opt/8, coarser for huge targets)")
+    p.add_argument("--speed", type=float, default=None, metavar="M_PER_S",
+                   help="cruise speed between waypoints (default: the drone's, else 5)")
+    p.add_argument("--shot-seconds", type=float, default=None,
+                   help="hover time per photo (default: the drone's photo interval, at least 1 s)")
+    p.add_argument("--lp-time-limit", type=float, default=LP_TIME_LIMIT_S, metavar="S",
+                   help=f"time for the LP that guides view selection and bounds it (default {LP_TIME_LIMIT_S:g}; "
+                        "0: plain greedy; an LP that runs out of time is dropped, with a warning)")
+    p.add_argument("--only", nargs="+", default=None, metavar="CLASS",
+                   choices=["facade", "roof", "terrace", "opposed_terrace"],
+                   help="cover only these surfaces (facade, roof, terrace, opposed_terrace)")
+    p.add_argument("--max-memory-gb", type=float, default=None, metavar="GB",
+                   help="refuse plans estimated to need more (default: 80%% of this machine's RAM)")
+    p.add_argument("--merge-obstacles-within", type=float, default=None, metavar="M",
+                   help="unite obstacles closer than M to the target with it (thesis Appendix C)")
+    p.add_argument("--export", default=None, metavar="FORMATS",
+                   help="also write flight files beside the route: qgc,wpl,litchi,wpml,kml,geojson,csv "
+                        "(one per battery flight: NAME.f1.plan, ...)")
+    add_export_args(p)
+
+
+def add_zone_args(p, judged: bool = False):
+    verb = "judge against" if judged else "never enter"
+    p.add_argument("--keep-out", nargs="+", default=[], metavar="ZONES",
+                   help=f"{verb} these polygons (GeoJSON/GeoPackage/Shapefile, WGS84 or the models' CRS; "
+                        "optional floor/ceiling properties in m above the ground)")
+    p.add_argument("--keep-in", nargs="+", default=[], metavar="ZONE",
+                   help=f"{'judge against' if judged else 'never leave'} the union of these polygons")
+    if not judged:
+        p.add_argument("--zone-margin", type=float, default=None, metavar="M",
+                       help="distance kept from the zones against the drone's position error (default: the drone's "
+                            "horizontal accuracy, 1.5 m without --drone)")
+
+
+def add_export_args(p):
+    p.add_argument("--firmware", choices=["px4", "ardupilot"], default="px4", help="for the QGC .plan")
+    p.add_argument("--wpml-heights", choices=["relative", "egm96"], default="relative",
+                   help="DJI WPML heights: relative to the take-off point (default) or EGM96 (needs a height "
+                        "datum and PROJ's geoid grid)")

@@ -1,0 +1,63 @@
+"""`coverplan check`: a flight's real photos reconstructed, and what they miss."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+from coverplan.cli.args import add_mapper_arg, add_scene_args, scene_from_args
+from coverplan.equipment.camera import check_positive
+from coverplan.errors import ParameterError
+from coverplan.evaluation import evaluate
+from coverplan.job import write_pictures
+from coverplan.progress import Progress
+from coverplan.sfm.check import check as check_photos
+
+
+def cmd_check(args) -> int:
+    from pathlib import Path
+
+    gsd, security = check_positive("--gsd", args.gsd), check_positive("--security", args.security)
+    out = Path(args.output)
+    if out.exists() and not out.is_dir():
+        raise ParameterError(f"{out} exists and is not a folder")
+    scene = scene_from_args(args)
+    progress = Progress(bars=not args.quiet, verbose=args.verbose)
+    result = check_photos(args.photos, scene, out, gsd=gsd, security=security, threads=args.threads, fit=args.fit,
+                          mapper=args.mapper, progress=progress)
+    for name, why in result.left_out:
+        print(f"coverplan: {name} left out: {why}", file=sys.stderr)
+    if args.report:
+        with progress.stage("evaluate"):
+            ev = evaluate(result.route, scene)
+        write_pictures(result.route, scene, ev, args.report, None, progress, result.simulation)
+    if args.json:
+        print(json.dumps(result.to_dict(), indent=1, default=float))
+    elif not args.quiet:
+        print(result.table())
+        print(f"written: {out / 'check.json'}, {out / 'missing.ply'}, {out / 'missing.geojson'}"
+              + (f", {args.report}" if args.report else ""))
+    return 1 if args.strict and not result.simulation.reconstructable else 0
+
+
+def register(sub) -> None:
+    """Add the subcommand to ``sub`` (argparse subparsers)."""
+    p = sub.add_parser("check", help="reconstruct a flight's real photos (EXIF/XMP positions) and say what is missing")
+    p.add_argument("photos", metavar="PHOTOS_DIR")
+    add_scene_args(p, targets_positional=False)
+    p.add_argument("-o", "--output", required=True, metavar="DIR",
+                   help="folder for COLMAP files, check.json, missing.ply and missing.geojson")
+    p.add_argument("--gsd", type=float, default=0.01, metavar="M_PER_PX",
+                   help="the GSD to judge the photos' flight by in its report (default 0.01)")
+    p.add_argument("--security", type=float, default=3.0, metavar="M",
+                   help="the security distance to judge it by in its report (default 3)")
+    p.add_argument("--report", default=None, metavar="REPORT.html", help="also write the HTML report of the flight")
+    p.add_argument("--no-fit", dest="fit", action="store_false",
+                   help="judge the model as aligned through the GNSS tags, without fitting it to the scene")
+    p.add_argument("--threads", type=int, default=-1)
+    add_mapper_arg(p)
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.add_argument("--strict", action="store_true", help="exit 1 unless the photos reconstruct (DESIGN.md)")
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.add_argument("-v", "--verbose", action="store_true")
+    p.set_defaults(func=cmd_check)

@@ -1,0 +1,81 @@
+"""`coverplan evaluate`: a route's or another app's mission's coverage and safety."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+from coverplan.cli.args import (
+    ROUTE_CEILING,
+    add_camera_args,
+    add_scene_args,
+    add_zone_args,
+    mission_route,
+    parse_ceiling,
+    scene_from_args,
+)
+from coverplan.equipment.camera import check_positive
+from coverplan.errors import ParameterError
+from coverplan.evaluation import evaluate
+from coverplan.flight.route import Route
+from coverplan.io.zones import read_zones
+from coverplan.progress import Progress
+
+
+def cmd_evaluate(args) -> int:
+    if args.spacing is not None:
+        check_positive("--spacing", args.spacing)
+    scene = scene_from_args(args)
+    if args.route.lower().endswith(".json"):
+        if args.gsd is not None or args.security is not None:
+            raise ParameterError("a route file carries its own camera, GSD and security distance; "
+                                 "--camera/--gsd/--security are for missions from other apps")
+        route = Route.load(args.route)
+    else:
+        route = mission_route(args, scene)
+    if args.max_altitude is not ROUTE_CEILING:  # judged against a ceiling given here instead of the route's own
+        route.params["max_altitude_m"] = args.max_altitude
+    if args.keep_out or args.keep_in:  # judged against these zones instead of the route's own
+        route.params["zones"] = read_zones(args.keep_out, args.keep_in, scene).to_list()
+    progress = Progress(bars=not args.json)
+    with progress.stage("evaluate", total=len(route.shots), unit="shot") as update:
+        ev = evaluate(route, scene, spacing=args.spacing, progress=update)
+    if args.json:
+        print(json.dumps(ev.metrics, indent=1, default=float))
+    else:
+        print(ev.table())
+    if args.strict:
+        failed = []
+        if not ev.safe:
+            failed.append("the route is not safe")
+        if args.min_coverage is not None and ev.coverage_pct < args.min_coverage:
+            failed.append(f"coverage {ev.coverage_pct:.2f} % is below {args.min_coverage} %")
+        if failed:
+            print(f"coverplan: strict check failed: {'; '.join(failed)}", file=sys.stderr)
+            return 1
+    return 0
+
+
+def register(sub) -> None:
+    """Add the subcommand to ``sub`` (argparse subparsers)."""
+    p = sub.add_parser("evaluate", help="check a route's or another app's mission's coverage and safety")
+    p.add_argument("route", metavar="ROUTE",
+                   help="a coverplan route (.json) or a mission: QGroundControl .plan, QGC WPL .waypoints, "
+                        "Litchi .csv, DJI WPML .kmz (docs/evaluate.md)")
+    add_scene_args(p, targets_positional=False)
+    add_camera_args(p)
+    p.add_argument("--gsd", type=float, default=None, metavar="M_PER_PX",
+                   help="for missions: the GSD to judge the photos by")
+    p.add_argument("--security", type=float, default=None, metavar="M",
+                   help="for missions: the security distance to judge the flight by")
+    p.add_argument("--spacing", type=float, default=None, metavar="M",
+                   help="surface sample spacing in metres (default 0.25, with a seed the planner does not use)")
+    p.add_argument("--max-altitude", type=parse_ceiling, default=ROUTE_CEILING, metavar="M|none",
+                   help="judge against this altitude ceiling above the ground (default: the route's own; "
+                        "missions from other apps: none)")
+    add_zone_args(p, judged=True)
+    p.add_argument("--json", action="store_true", help="print the metrics as JSON")
+    p.add_argument("--strict", action="store_true",
+                   help="exit 1 when the route is unsafe or coverage is below --min-coverage")
+    p.add_argument("--min-coverage", type=float, default=None, metavar="PCT")
+    p.set_defaults(func=cmd_evaluate)

@@ -1,0 +1,45 @@
+"""`coverplan export`: a route for autopilots and apps."""
+
+from __future__ import annotations
+
+from coverplan.cli.args import add_export_args, export_options
+from coverplan.errors import ParameterError
+from coverplan.flight.route import Route
+from coverplan.geometry.geo import check_crs
+from coverplan.io import export_route, parse_formats
+from coverplan.io.load import _check_geodetic_origin
+
+
+def cmd_export(args) -> int:
+    formats = parse_formats(args.format)
+    if not formats:
+        raise ParameterError("give --format with one or more of: qgc, wpl, litchi, kml, geojson, csv")
+    route = Route.load(args.route)
+    if args.crs or args.geo_origin:
+        if args.crs and args.geo_origin:
+            raise ParameterError("give either --crs or --geo-origin, not both")
+        if route.frame.get("crs") and args.crs and args.crs != route.frame["crs"]:
+            raise ParameterError(f"--crs {args.crs} contradicts the route's {route.frame['crs']}")
+        if args.crs:
+            route.frame["crs"] = check_crs(args.crs)
+        else:
+            route.frame["geodetic_origin"] = _check_geodetic_origin(args.geo_origin)
+    stem = args.output or (args.route[:-5] if args.route.lower().endswith(".json") else args.route)
+    written = export_route(route, stem, formats, **export_options(args))
+    print("written: " + ", ".join(str(p) for p in written))
+    return 0
+
+
+def register(sub) -> None:
+    """Add the subcommand to ``sub`` (argparse subparsers)."""
+    p = sub.add_parser("export", help="write a route for autopilots: QGC .plan, WPL, Litchi, DJI WPML, KML, GeoJSON, CSV")
+    p.add_argument("route", metavar="ROUTE.json")
+    p.add_argument("--format", required=True, metavar="FORMATS",
+                   help="comma separated: qgc,wpl,litchi,wpml,kml,geojson,csv")
+    p.add_argument("-o", "--output", default=None, metavar="PREFIX", help="default: the route path without .json")
+    p.add_argument("--crs", default=None, metavar="EPSG:XXXX", help="the CRS of a route that has none")
+    p.add_argument("--geo-origin", nargs=3, type=float, default=None, metavar=("LAT", "LON", "H"))
+    p.add_argument("--drone", default=None, metavar="NAME", help="for WPML: the drone (default: the route's)")
+    add_export_args(p)
+    p.add_argument("--speed", type=float, default=None, metavar="M_PER_S")
+    p.set_defaults(func=cmd_export)

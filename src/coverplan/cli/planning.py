@@ -1,0 +1,106 @@
+"""`coverplan plan`: a safe flight covering the target, its summary, exports and report."""
+
+from __future__ import annotations
+
+import sys
+
+from coverplan.cli.args import (
+    add_planning_args,
+    add_scene_args,
+    add_simulate_args,
+    camera_from_args,
+    drone_from_args,
+    export_options,
+    plan_options,
+    scene_from_args,
+)
+from coverplan.cli.simulating import simulate_route
+from coverplan.cli.summary import plan_summary
+from coverplan.equipment.drones import security_shortfall
+from coverplan.errors import ParameterError
+from coverplan.io import GEOGRAPHIC_FORMATS, parse_formats
+from coverplan.job import run_job, write_pictures
+from coverplan.progress import Progress
+from coverplan.sfm.existing import read_existing
+from coverplan.sfm.simulate import Simulation
+from coverplan.world.merge import merge_into_target
+
+
+def cmd_plan(args) -> int:
+    from pathlib import Path
+
+
+    out = Path(args.output)
+    if out.exists() and not args.force:
+        raise ParameterError(f"{out} exists; pass --force to overwrite it")
+    if not out.parent.exists():
+        raise ParameterError(f"{out.parent} does not exist (output folder for {out.name})")
+    camera = camera_from_args(args)
+    formats = parse_formats(args.export)
+    progress = Progress(bars=not args.quiet, verbose=args.verbose)
+    with progress.stage("load scene"):
+        scene = scene_from_args(args)
+        if args.merge_obstacles_within is not None:
+            if args.merge_obstacles_within < 0:
+                raise ParameterError(f"--merge-obstacles-within must be >= 0, got {args.merge_obstacles_within}")
+            scene = merge_into_target(scene, args.merge_obstacles_within)
+    for note in scene.notes:  # say it now, before the long work, not only in the summary
+        if note.startswith("WARNING"):
+            print(f"coverplan: {note}", file=sys.stderr)
+    if set(formats) & GEOGRAPHIC_FORMATS and not (scene.crs or scene.geodetic_origin):
+        raise ParameterError(f"{', '.join(sorted(set(formats) & GEOGRAPHIC_FORMATS))} export needs a georeference: "
+                             "the input has no CRS; pass --crs EPSG:XXXX or --geo-origin LAT LON H")
+    if args.strict:
+        shortfall = security_shortfall(args.security, drone_from_args(args))
+        if shortfall:
+            raise ParameterError(f"{shortfall} (--strict)")
+    # --start is in the input models' coordinates, like the meshes: move it with them.
+    start = None if args.start is None else scene.to_local(args.start)
+    options = plan_options(args, formats)
+    if args.existing:
+        with progress.stage("existing photos"):
+            options["existing"] = read_existing(args.existing, scene, camera, args.gsd, args.security, progress)
+    job = run_job(scene, camera, out, formats=formats, export_options=export_options(args), evaluated=args.evaluate,
+                  report=args.report, plot=args.plot, start=start, progress=progress, **options)
+    route, ev, written = job.route, job.evaluation, job.written
+    if job.exports_withheld:
+        print("coverplan: the evaluator found the route unsafe; no mission was exported", file=sys.stderr)
+    if not args.quiet:
+        print(plan_summary(route))
+        print("written: " + ", ".join(str(p) for p in written))
+    if args.simulate:
+        code = simulate_route(route, scene, args.simulate, args)
+        if args.report:
+            write_pictures(route, scene, ev, args.report, args.plot, progress,
+                           Simulation.load(Path(args.simulate) / "simulation.json"))
+        return code
+    return 0
+
+
+def register(sub) -> None:
+    """Add the subcommand to ``sub`` (argparse subparsers)."""
+    p = sub.add_parser("plan", help="plan a safe flight covering the target surface")
+    add_scene_args(p, targets_positional=True)
+    add_planning_args(p)
+    p.add_argument("--start", nargs=3, type=float, default=None, metavar=("X", "Y", "Z"),
+                   help="start and end point, in the input models' coordinates (default: just outside "
+                        "the shot region, north-west)")
+    p.add_argument("--existing", default=None, metavar="PHOTOS_DIR|MISSION",
+                   help="photos already taken (a folder of photos with GPS tags, a route .json, or a mission: "
+                        "QGC .plan, .waypoints, Litchi .csv, DJI .kmz): their views count and the new flight takes "
+                        "only what they do not give")
+    p.add_argument("--no-evaluate", dest="evaluate", action="store_false",
+                   help="skip the independent evaluation of the planned route")
+    p.add_argument("-o", "--output", required=True, metavar="ROUTE.json")
+    p.add_argument("--report", default=None, metavar="REPORT.html", help="also write the HTML flight report")
+    p.add_argument("--plot", default=None, metavar="PREFIX", help="also write PNG figures PREFIX_*.png")
+    p.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    p.add_argument("--strict", action="store_true",
+                   help="refuse a security distance below the drone's position error bound plus 1 m; "
+                        "with --simulate, exit 1 unless the photos reconstruct")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summary")
+    p.add_argument("-v", "--verbose", action="store_true", help="log each stage's time")
+    p.add_argument("--simulate", default=None, metavar="DIR",
+                   help="also render the photos and reconstruct them with COLMAP into DIR (needs coverplan[sfm])")
+    add_simulate_args(p)
+    p.set_defaults(func=cmd_plan)

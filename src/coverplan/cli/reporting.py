@@ -1,0 +1,52 @@
+"""`coverplan report` and `coverplan plot`: the HTML report and PNG figures of a route."""
+
+from __future__ import annotations
+
+from coverplan.cli.args import add_scene_args, scene_from_args
+from coverplan.errors import ParameterError
+from coverplan.evaluation import evaluate
+from coverplan.flight.route import Route
+from coverplan.job import write_pictures
+from coverplan.progress import Progress
+from coverplan.sfm.simulate import Simulation
+
+
+def cmd_report(args) -> int:
+    if not args.report and not args.plot:
+        raise ParameterError("give -o REPORT.html and/or --plot PREFIX")
+    route = Route.load(args.route)
+    scene = scene_from_args(args)
+    progress = Progress(bars=not args.quiet, verbose=args.verbose)
+    with progress.stage("evaluate"):
+        ev = evaluate(route, scene, spacing=args.spacing)
+    simulation = None
+    if getattr(args, "simulation", None):
+        simulation = Simulation.load(args.simulation)
+        if len(simulation.shot_registered) != len(route.shots):
+            raise ParameterError(f"{args.simulation}: simulates {len(simulation.shot_registered)} photos, "
+                                 f"the route takes {len(route.shots)}; is it another route's?")
+    written = write_pictures(route, scene, ev, args.report, args.plot, progress, simulation)
+    if not args.quiet:
+        print("written: " + ", ".join(str(p) for p in written))
+    return 0
+
+
+def register(sub) -> None:
+    """Add the subcommand to ``sub`` (argparse subparsers)."""
+    for name, helptext in (("report", "write the HTML flight report (and/or PNG figures) of a route"),
+                           ("plot", "write PNG figures (and/or the HTML report) of a route")):
+        p = sub.add_parser(name, help=helptext)
+        p.add_argument("route", metavar="ROUTE.json")
+        add_scene_args(p, targets_positional=False)
+        p.add_argument("--spacing", type=float, default=None, metavar="M")
+        p.add_argument("--simulation", default=None, metavar="SIMULATION.json",
+                       help="show what 'coverplan simulate' recovered (its DIR/simulation.json)")
+        if name == "report":
+            p.add_argument("-o", "--output", dest="report", default=None, metavar="REPORT.html")
+            p.add_argument("--plot", default=None, metavar="PREFIX")
+        else:
+            p.add_argument("-o", "--output", dest="plot", default=None, metavar="PREFIX")
+            p.add_argument("--report", default=None, metavar="REPORT.html")
+        p.add_argument("-q", "--quiet", action="store_true")
+        p.add_argument("-v", "--verbose", action="store_true")
+        p.set_defaults(func=cmd_report)

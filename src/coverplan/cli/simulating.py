@@ -1,0 +1,64 @@
+"""`coverplan simulate`: render a route's photos, reconstruct them with COLMAP, judge the result."""
+
+from __future__ import annotations
+
+import json
+import sys
+
+from coverplan.cli.args import add_scene_args, add_simulate_args, scene_from_args
+from coverplan.equipment.camera import check_positive
+from coverplan.errors import ParameterError
+from coverplan.flight.route import Route
+from coverplan.progress import Progress
+from coverplan.sfm.simulate import simulate
+
+
+def cmd_simulate(args) -> int:
+    route = Route.load(args.route)
+    scene = scene_from_args(args)
+    return simulate_route(route, scene, args.output, args)
+
+
+def simulate_route(route, scene, out_dir, args) -> int:
+    """Render, reconstruct and judge; prints the table (or JSON), exit 1 under --strict when
+    the flight would not reconstruct."""
+    from pathlib import Path
+
+
+    width = int(check_positive("--photo-width", args.photo_width))
+    if width < 160:
+        raise ParameterError(f"--photo-width must be at least 160 px, got {width}")
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise ParameterError(f"{out} exists and is not a folder")
+    progress = Progress(bars=not getattr(args, "quiet", False), verbose=getattr(args, "verbose", False))
+    if args.draws < 1:
+        raise ParameterError(f"--draws must be at least 1, got {args.draws}")
+    sim = simulate(route, scene, out, conditions=args.conditions, draws=args.draws, texture=args.texture,
+                   matching=args.matching, mapper=args.mapper, spatial_neighbours=args.neighbours,
+                   max_features=args.max_features, width=width, threads=args.threads, progress=progress)
+    sim.save(out / "simulation.json")
+    if getattr(args, "json", False):
+        print(json.dumps(sim.to_dict(), indent=1, default=float))
+    elif not getattr(args, "quiet", False):
+        print(sim.table())
+        print(f"written: {out / 'simulation.json'}, photos in {out / 'images'}")
+    if getattr(args, "strict", False) and not sim.reconstructable:
+        print("coverplan: strict check failed: the photos do not reconstruct (see the table)", file=sys.stderr)
+        return 1
+    return 0
+
+
+def register(sub) -> None:
+    """Add the subcommand to ``sub`` (argparse subparsers)."""
+    p = sub.add_parser("simulate", help="render a route's photos, reconstruct them with COLMAP, judge the result")
+    p.add_argument("route", metavar="ROUTE.json")
+    add_scene_args(p, targets_positional=False)
+    p.add_argument("-o", "--output", required=True, metavar="DIR", help="folder for photos, COLMAP files and simulation.json")
+    add_simulate_args(p)
+    p.add_argument("--json", action="store_true", help="print the result as JSON")
+    p.add_argument("--strict", action="store_true",
+                   help="exit 1 unless the flight is reconstructable (DESIGN.md: one model, >= 95 %% surface)")
+    p.add_argument("-q", "--quiet", action="store_true")
+    p.add_argument("-v", "--verbose", action="store_true")
+    p.set_defaults(func=cmd_simulate)
