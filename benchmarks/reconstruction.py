@@ -19,12 +19,12 @@ import time
 from pathlib import Path
 
 from common import MESHES, table, write_json
-from plan_scenes import SCENES  # every sample scene; "fig411" is the thesis prism with its obstacle
 from coverplan import evaluate, get_camera, load_scene, plan
 from coverplan.progress import Progress
-from coverplan.shots.reconstructability import MatchRule
 from coverplan.sfm.colmap import SPATIAL_NEIGHBOURS
 from coverplan.sfm.simulate import simulate
+from coverplan.shots.reconstructability import MatchRule
+from plan_scenes import SCENES  # every sample scene; "fig411" is the thesis prism with its obstacle
 from structure_scan import scan_with_roof_grid, structure_scan
 
 CAMERA, GSD, SECURITY = "phantom4pro", 0.004, 3.0

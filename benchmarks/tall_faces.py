@@ -29,7 +29,8 @@ from coverplan.sfm.colmap import _aligned, require_pycolmap
 from coverplan.sfm.conditions import fly, get_conditions
 from coverplan.sfm.judge import judge_classes, judge_samples
 from coverplan.sfm.simulate import JUDGE_SPACING_M, photo_names, simulate
-from coverplan.shots.reconstructability import MatchRule, best_incidence, incidence_deg
+from coverplan.shots.reconstructability import MatchRule
+from coverplan.shots.sharpness import best_incidence, incidence_deg
 from coverplan.shots.visibility import imaging_pairs
 from reconstruction import CAMERA, GSD, SECURITY
 

@@ -17,7 +17,8 @@ from coverplan.shots.framing import (
     framed_view_matrix,
     view_fill,
 )
-from coverplan.shots.reconstructability import MatchRule, add_wanted_views
+from coverplan.shots.reconstructability import MatchRule
+from coverplan.shots.sharpness import add_wanted_views
 from tests.helpers import box
 from tests.independent import frame_share, polyline_min_distance
 

@@ -10,15 +10,13 @@ from coverplan import evaluate, get_camera, plan
 from coverplan.shots.bracing import bracing_gain
 from coverplan.shots.reconstructability import (
     MatchRule,
-    add_sharp_views,
     candidate_links,
     connect_shots,
     cut_shots,
     graph_summary,
-    incidence_deg,
-    sharp_targets,
     shot_links,
 )
+from coverplan.shots.sharpness import add_sharp_views, incidence_deg, sharp_targets
 from coverplan.shots.visibility import has_pair_between, widest_pair_angle
 from coverplan.world.scene import scene_from_meshes
 from tests.helpers import box

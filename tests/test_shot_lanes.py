@@ -7,7 +7,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import scipy.sparse as sp
-import trimesh
 
 from coverplan import evaluate, get_camera, load_scene, plan
 from coverplan.cli import main
@@ -15,6 +14,7 @@ from coverplan.flight.lanes import route_step_shape
 from coverplan.flight.tour import lane_costs
 from coverplan.planning.settings import PlanSettings
 from coverplan.planning.setup import resolve
+from coverplan.shots.candidates import Candidates
 from coverplan.shots.lane_selection import select_lanes
 from coverplan.shots.lanes import (
     LANE_SOURCE,
@@ -25,10 +25,9 @@ from coverplan.shots.lanes import (
     roof_lanes,
     safe_lanes,
 )
-from coverplan.shots.candidates import Candidates
 from coverplan.shots.surface import sample_surface
 from coverplan.world.scene import scene_from_meshes
-from tests.helpers import MESHES, box, gsd_for
+from tests.helpers import MESHES, box
 from tests.independent import images, polyline_min_distance
 
 SECURITY = 3.0

@@ -16,17 +16,7 @@ from coverplan.shots.framing import (
     framed_view_matrix,
     view_fill,
 )
-from coverplan.shots.reconstructability import (
-    SHARP_INCIDENCE_DEG,
-    MatchRule,
-    best_incidence,
-    candidate_links,
-    connect_shots,
-    extend_links,
-    incidence_deg,
-    sharp_view_matrix,
-    shot_links,
-)
+from coverplan.shots.reconstructability import MatchRule, candidate_links, connect_shots, extend_links, shot_links
 from coverplan.shots.redundancy import TRIM_SPARE_VIEWS, CheckViews, SharpViews, drop_redundant
 from coverplan.shots.relink import check_views, relink_on_check
 from coverplan.shots.repair import (
@@ -36,6 +26,7 @@ from coverplan.shots.repair import (
     GapCloser,
 )
 from coverplan.shots.selection import select_views
+from coverplan.shots.sharpness import SHARP_INCIDENCE_DEG, best_incidence, incidence_deg, sharp_view_matrix
 from coverplan.shots.visibility import view_rays
 
 

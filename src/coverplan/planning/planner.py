@@ -16,12 +16,12 @@ from coverplan.equipment.camera import Camera
 from coverplan.equipment.drones import DroneProfile
 from coverplan.equipment.flighttime import FlightModel
 from coverplan.flight.route import Route
-from coverplan.planning.settings import PlanSettings
 from coverplan.planning.assembly import make_route
 from coverplan.planning.flying import fly
 from coverplan.planning.gaps import close_gaps
 from coverplan.planning.problem import build_problem
 from coverplan.planning.selecting import select_shots
+from coverplan.planning.settings import PlanSettings
 from coverplan.planning.setup import resolve
 from coverplan.progress import Progress
 

@@ -35,15 +35,13 @@ from coverplan.shots.reachability import (
     Reachability,
     reachability,
 )
-from coverplan.shots.reconstructability import (
-    candidate_links,
-    incidence_deg,
-)
+from coverplan.shots.reconstructability import candidate_links
 from coverplan.shots.repair import (
     CoverProblem,
     check_samples,
     planner_check_spacing,
 )
+from coverplan.shots.sharpness import incidence_deg
 from coverplan.shots.surface import SurfaceSamples, sample_surface
 from coverplan.shots.visibility import has_pair_between, view_rays
 

@@ -15,15 +15,9 @@ from coverplan.shots.framing import (
     view_fill,
 )
 from coverplan.shots.lane_selection import select_lanes
-from coverplan.shots.reconstructability import (
-    MatchRule,
-    add_sharp_views,
-    add_wanted_views,
-    connect_shots,
-    incidence_deg,
-    sharp_view_matrix,
-)
+from coverplan.shots.reconstructability import MatchRule, connect_shots
 from coverplan.shots.selection import select_views
+from coverplan.shots.sharpness import add_sharp_views, add_wanted_views, incidence_deg, sharp_view_matrix
 
 
 @dataclass(frozen=True)

@@ -30,9 +30,7 @@ from coverplan.shots.reachability import (
     ViewLimits,
     scene_limits,
 )
-from coverplan.shots.reconstructability import (
-    MatchRule,
-)
+from coverplan.shots.reconstructability import MatchRule
 from coverplan.shots.surface import default_spacing
 
 MAX_LATTICE_NODES = 150_000

@@ -27,7 +27,7 @@ from coverplan.shots.candidates import (
     thin,
 )
 from coverplan.shots.reachability import ViewLimits, reachability
-from coverplan.shots.reconstructability import add_sharp_views, incidence_deg
+from coverplan.shots.sharpness import add_sharp_views, incidence_deg
 from coverplan.shots.surface import (
     OPPOSED_TERRACE,
     SurfaceSamples,
