@@ -4,9 +4,11 @@ reconstructed and judged; the side the flight left out is named."""
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
+import trimesh
 
 from coverplan import get_camera, load_scene, plan
 from coverplan.cli import main
@@ -119,3 +121,68 @@ def test_a_colmap_failure_names_its_stage_and_keeps_the_database(tmp_path, capsy
     assert "COLMAP failed in" in err[0] and "mapping" in err[0] and "Traceback" not in err[0]
     database = out / "colmap" / "database.db"
     assert str(database) in err[0] and database.exists()
+
+
+REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real-photos"
+
+
+def flat_target(tmp_path, half: float = 80.0) -> Path:
+    mesh = trimesh.Trimesh([[-half, -half, 0], [half, -half, 0], [half, half, 0], [-half, half, 0]],
+                           [[0, 1, 2], [0, 2, 3]])
+    path = tmp_path / "flat.ply"
+    mesh.export(path)
+    return path
+
+
+@pytest.mark.xdist_group("real_photos")
+def test_check_reads_and_rebuilds_a_real_dji_flight(tmp_path, capsys):
+    """18 photos of a DJI FC300S as the camera wrote them (EXIF GPS, DJI XMP), features found at
+    640 px: one model of every photo, camera centres within a GNSS error of their tags, the
+    model fitted onto a flat target at take-off height (GPS altitude less the relative altitude)
+    with the move reported, and no figure the user cannot read."""
+    folder = REAL / "brighton-beach"
+    if not folder.is_dir():
+        pytest.skip("the real photo sets are not beside this checkout (../shared/data/real-photos)")
+    tags = [read_photo(f) for f in sorted(folder.glob("*.JPG"))]
+    lat, lon = np.mean([t.lat for t in tags]), np.mean([t.lon for t in tags])
+    takeoff = float(np.median([t.gps_altitude_m - t.relative_altitude_m for t in tags]))
+    out = tmp_path / "check"
+    code = main(["check", str(folder), "--target", str(flat_target(tmp_path)), "--geo-origin", str(lat), str(lon),
+                 str(takeoff), "--working-px", "640", "-o", str(out)])
+    captured = capsys.readouterr()
+    assert code == 0
+    assert "nan" not in captured.out and "DESIGN" not in captured.out
+    result = json.loads((out / "check.json").read_text())
+    assert result["photos"] == 18 and result["registered"] >= 16 and result["models"] == 1
+    assert result["gnss_residual_m"]["median"] < 1.5  # a consumer GNSS's error
+    assert result["fitted"] and 0.5 < result["icp_shift_m"] <= 10.0  # its heights were off; the fit says by how much
+    assert "fitted to the surfaces (moved" in captured.out
+    import pycolmap
+
+    rec = pycolmap.Reconstruction(out / "colmap" / "sparse" / "0")
+    assert rec.num_reg_images() == result["registered"]
+    cams = {c.model.name for c in rec.cameras.values()}
+    assert cams  # COLMAP's own model on disk, read back
+
+
+@pytest.mark.xdist_group("real_photos")
+def test_check_of_a_real_gps_only_flight_says_why_it_gives_no_verdict(tmp_path, capsys):
+    """14 Canon photos with EXIF GPS only (no XMP; the GPS altitude drifts 15 m through the
+    flight) against a flat target at a height the photos do not give: every photo registers in
+    one model, and where the model does not sit on the target the report says why instead of a
+    0 % verdict."""
+    folder = REAL / "caliterra"
+    if not folder.is_dir():
+        pytest.skip("the real photo sets are not beside this checkout (../shared/data/real-photos)")
+    tags = [read_photo(f) for f in sorted(folder.glob("*.jpg"))]
+    assert all(t.has_position for t in tags) and not any(np.isfinite(t.pitch_deg) for t in tags)
+    lat, lon = np.mean([t.lat for t in tags]), np.mean([t.lon for t in tags])
+    out = tmp_path / "check"
+    code = main(["check", str(folder), "--target", str(flat_target(tmp_path)), "--geo-origin", str(lat), str(lon),
+                 "300", "--working-px", "640", "-o", str(out)])
+    captured = capsys.readouterr()
+    assert code == 0 and "nan" not in captured.out
+    result = json.loads((out / "check.json").read_text())
+    assert result["photos"] == 14 and result["registered"] >= 12 and result["models"] == 1
+    assert not result["judged"] and "median" in result["why_not_judged"]
+    assert "not judged:" in captured.out and "surface reconstructed" not in captured.out

@@ -11,6 +11,7 @@ from coverplan.errors import ParameterError
 from coverplan.evaluation import evaluate
 from coverplan.job import write_pictures
 from coverplan.progress import Progress
+from coverplan.sfm.check import WORKING_PX
 from coverplan.sfm.check import check as check_photos
 
 
@@ -24,7 +25,7 @@ def cmd_check(args) -> int:
     scene = scene_from_args(args)
     progress = Progress(bars=not args.quiet, verbose=args.verbose)
     result = check_photos(args.photos, scene, out, gsd=gsd, security=security, threads=args.threads, fit=args.fit,
-                          mapper=args.mapper, progress=progress)
+                          mapper=args.mapper, working_px=args.working_px or None, progress=progress)
     for name, why in result.left_out:
         print(f"coverplan: {name} left out: {why}", file=sys.stderr)
     if args.report:
@@ -55,6 +56,9 @@ def register(sub) -> None:
     p.add_argument("--no-fit", dest="fit", action="store_false",
                    help="judge the model as aligned through the GNSS tags, without fitting it to the scene")
     p.add_argument("--threads", type=int, default=-1)
+    p.add_argument("--working-px", type=int, default=WORKING_PX, metavar="PX",
+                   help=f"find features on the photos scaled down to this longest side (default {WORKING_PX}; "
+                        "0: full size)")
     add_mapper_arg(p)
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--strict", action="store_true", help="exit 1 unless the photos reconstruct (DESIGN.md)")

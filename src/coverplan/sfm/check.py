@@ -31,7 +31,12 @@ from coverplan.sfm.simulate import JUDGE_SPACING_M, Simulation
 
 ICP_ROUNDS = 15
 ICP_SAMPLE = 20_000
-MAX_FIT_M = 3.0  # a GNSS drone's flight-wide error stays within this; the fit moves no farther
+WORKING_PX = 2000  # longest side of the photos as their features are found (benchmarks/README.md, check)
+MAX_FIT_M = 3.0  # a GNSS drone's flight-wide horizontal error stays within this; the fit moves no farther
+# Heights are a GNSS drone's weakest figure (several metres, and barometric drift over a flight):
+# the fit may move the model this far up or down.
+MAX_FIT_VERTICAL_M = 10.0
+JUDGING_RADIUS_M = 0.2  # a surface point counts as rebuilt with a 3D point this near
 
 
 @dataclass
@@ -46,28 +51,64 @@ class Check:
     fitted: bool = False  # whether the fit was applied (not when it would move the model > MAX_FIT_M)
     missing: dict = field(default_factory=dict)  # per class: m2 not rebuilt at 0.2 m
     gnss_residual_m: dict = field(default_factory=dict)  # median / max camera centre to its GNSS tag, aligned
+    unjudged: str = ""  # why the surface could not be judged; "" when it was
 
     def table(self) -> str:
         rows = [("photos in the folder", f"{len(self.names) + len(self.left_out)}"),
                 ("left out (no position)", ", ".join(n for n, _ in self.left_out[:8])
                  + (f" and {len(self.left_out) - 8} more" if len(self.left_out) > 8 else "") or "none"),
-                ("aligned to the scene", (f"through the GNSS tags, then fitted to the surfaces (moved "
-                                          f"{self.icp_shift_m:.2f} m)") if self.fitted else
-                 f"through the GNSS tags only (a fit would move it {self.icp_shift_m:.1f} m)")]
+                ("aligned to the scene", self._alignment())]
         if self.gnss_residual_m:
             residual = self.gnss_residual_m
             rows.append(("camera centres from their tags",
                          f"median {residual['median']:.2f} m, max {residual['max']:.2f} m (after alignment)"))
-        rows += self.simulation.rows()[1:]
-        worst = sorted(self.missing.items(), key=lambda kv: -kv[1])[:4]
-        rows += [("missing", ", ".join(f"{c} {a:.1f} m2" for c, a in worst if a > 0.05) or "nothing")]
+        verdict = self.simulation.rows()[1:]
+        if self.unjudged:
+            rows += [r for r in verdict if not r[0].startswith(("surface", "  ", "reconstructable"))]
+            rows.append(("surface", f"not judged: {self.unjudged}"))
+        else:
+            rows += verdict
+            worst = sorted(self.missing.items(), key=lambda kv: -kv[1])[:4]
+            rows += [("missing", ", ".join(f"{c} {a:.1f} m2" for c, a in worst if a > 0.05) or "nothing")]
         w = max(len(r[0]) for r in rows)
         return "\n".join(f"{k:<{w}}  {v}" for k, v in rows)
+
+    def _alignment(self) -> str:
+        if self.fitted and not self.unjudged:
+            return f"through the GNSS tags, then fitted to the surfaces (moved {self.icp_shift_m:.2f} m)"
+        if self.fitted:
+            return "through the GNSS tags; no fit brought the model onto the surfaces"
+        return f"through the GNSS tags only (a fit would move it {self.icp_shift_m:.1f} m)" if self.icp_shift_m \
+            else "through the GNSS tags only"
 
     def to_dict(self) -> dict:
         return {"photos_used": self.names, "left_out": [{"photo": n, "why": w} for n, w in self.left_out],
                 "icp_shift_m": self.icp_shift_m, "fitted": self.fitted, "missing_m2": self.missing,
-                "gnss_residual_m": self.gnss_residual_m, **self.simulation.to_dict()}
+                "gnss_residual_m": self.gnss_residual_m, "judged": not self.unjudged,
+                "why_not_judged": self.unjudged or None, **self.simulation.to_dict()}
+
+
+def _median_distance(points: np.ndarray, surfaces: trimesh.Trimesh, sample: int = 5000) -> float:
+    """Median distance, m, from (a sample of) the model's points to the scene's surfaces."""
+    rng = np.random.default_rng(0)
+    pts = points if len(points) <= sample else points[rng.choice(len(points), sample, replace=False)]
+    return float(np.median(trimesh.proximity.ProximityQuery(surfaces).on_surface(pts)[1]))
+
+
+def _why_unjudged(best, apart: float | None, fitted: bool, fit: bool) -> str:
+    """Why the surface cannot be judged ("" when it can): no model, a model the GNSS tags could
+    not place, or one that sits farther from the scene than the judging radius."""
+    if best is None:
+        return "COLMAP made no model of the photos"
+    if not best.aligned:
+        return "the model could not be placed through the photos' GNSS tags"
+    if apart is not None and apart > 2.0 * JUDGING_RADIUS_M:
+        how = ("a fit to the surfaces would move it beyond a GNSS error (see 'aligned to the scene'); check the "
+               "georeference (--crs / --geo-origin) and the height datum") if fit and not fitted else \
+            "judged without a fit (--no-fit)" if not fit else "the fit did not bring it onto the surfaces"
+        return (f"the model's points lie a median {apart:.1f} m from the scene's surfaces, farther than the "
+                f"{JUDGING_RADIUS_M:g} m a point may be from the surface it rebuilds: {how}")
+    return ""
 
 
 def photos_as_mission(tags: list[PhotoTags], absolute_heights: bool, source: str) -> Mission:
@@ -140,9 +181,10 @@ def photos_route(folder, scene, gsd: float, security: float, progress: Progress 
 
 
 def fit_to_scene(points: np.ndarray, surfaces: trimesh.Trimesh, rounds: int = ICP_ROUNDS,
-                 sample: int = ICP_SAMPLE, seed: int = 0) -> np.ndarray:
+                 sample: int = ICP_SAMPLE, seed: int = 0, reach: float = MAX_FIT_VERTICAL_M) -> np.ndarray:
     """A rigid transform (4, 4) moving ``points`` (n, 3) onto ``surfaces``: ICP on a sample,
-    each round on the pairs within three times the median distance (at least 0.3 m)."""
+    each round on the pairs within three times the median distance (at least 0.3 m, at most
+    ``reach``: farther points are clutter, not the same surface)."""
     rng = np.random.default_rng(seed)
     pts = points if len(points) <= sample else points[rng.choice(len(points), sample, replace=False)]
     total = np.eye(4)
@@ -152,8 +194,7 @@ def fit_to_scene(points: np.ndarray, surfaces: trimesh.Trimesh, rounds: int = IC
     for _ in range(rounds):
         moved = pts @ total[:3, :3].T + total[:3, 3]
         closest, distance, _ = query.on_surface(moved)
-        # Pairs within reach of a GNSS error: farther points are clutter, not the same surface.
-        near = distance <= min(max(0.3, 3.0 * float(np.median(distance))), MAX_FIT_M)
+        near = distance <= min(max(0.3, 3.0 * float(np.median(distance))), reach)
         if near.sum() < 10:
             break
         step, _, _ = trimesh.registration.procrustes(moved[near], closest[near], reflection=False, scale=False)
@@ -166,7 +207,7 @@ def fit_to_scene(points: np.ndarray, surfaces: trimesh.Trimesh, rounds: int = IC
 def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.0, threads: int = -1,
           exhaustive_limit: int = 80, spatial_neighbours: int = SPATIAL_NEIGHBOURS,
           judge_spacing: float = JUDGE_SPACING_M, fit: bool = True, mapper: str = "auto",
-          progress: Progress | None = None) -> Check:
+          working_px: int | None = WORKING_PX, progress: Progress | None = None) -> Check:
     """Reconstruct a flight's photos and judge what they rebuilt of ``scene``.
 
     Parameters
@@ -183,6 +224,8 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
         Fit the GNSS-aligned model to the scene's surfaces (ICP) before judging.
     mapper : {"auto", "incremental", "global"}
         COLMAP's mapper, as ``simulate`` takes it.
+    working_px : int or None
+        The longest side, px, the photos are scaled down to for their features (None: full size).
 
     Returns
     -------
@@ -199,23 +242,27 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
     spread = float(np.ptp(gnss, axis=0).max()) if len(gnss) else 0.0
     sfm = run_sfm(folder, names, photo, gnss, [], out_dir / "colmap", exhaustive_limit=exhaustive_limit,
                   threads=threads, progress=progress, matching="spatial", recorded_positions=gnss,
-                  neighbour_distance=max(0.5 * spread, 10.0), neighbours=spatial_neighbours, mapper=mapper)
+                  neighbour_distance=max(0.5 * spread, 10.0), neighbours=spatial_neighbours, mapper=mapper,
+                  working_px=working_px)
     best = sfm.largest
     pts = best.points if best is not None and best.aligned else np.zeros((0, 3))
-    shift, fitted = 0.0, False
-    if fit and len(pts):
-        with progress.stage("fitting the model to the scene"):
-            surfaces = trimesh.util.concatenate([p.mesh for p in scene.parts]
-                                                + [ground_plane(scene, 2.0 * route.d_opt)])
-            m = fit_to_scene(pts, surfaces)
-            centroid = pts.mean(axis=0)
-            shift = float(np.linalg.norm(centroid @ m[:3, :3].T + m[:3, 3] - centroid))
-            fitted = shift <= MAX_FIT_M
-            if fitted:
-                pts = pts @ m[:3, :3].T + m[:3, 3]
-            else:  # not a GNSS error: a wrong georeference or height datum, left for the user to see
-                progress.note(f"fitting the model to the scene would move it {shift:.1f} m: kept at its GNSS "
-                              "alignment (check the georeference and heights)")
+    shift, fitted, apart = 0.0, False, None
+    if len(pts):
+        surfaces = trimesh.util.concatenate([p.mesh for p in scene.parts] + [ground_plane(scene, 2.0 * route.d_opt)])
+        if fit:
+            with progress.stage("fitting the model to the scene"):
+                m = fit_to_scene(pts, surfaces)
+                centroid = pts.mean(axis=0)
+                move = centroid @ m[:3, :3].T + m[:3, 3] - centroid
+                shift = float(np.linalg.norm(move))
+                fitted = float(np.linalg.norm(move[:2])) <= MAX_FIT_M and abs(float(move[2])) <= MAX_FIT_VERTICAL_M
+                if fitted:
+                    pts = pts @ m[:3, :3].T + m[:3, 3]
+                else:  # not a GNSS error: a wrong georeference or height datum, left for the user to see
+                    progress.note(f"fitting the model to the scene would move it {shift:.1f} m "
+                                  f"({float(np.linalg.norm(move[:2])):.1f} m across, {float(move[2]):+.1f} m up): "
+                                  "kept at its GNSS alignment (check the georeference and heights)")
+        apart = _median_distance(pts, surfaces)
     with progress.stage("judging the reconstruction"):
         samples = judge_samples(scene, judge_spacing)
         surface = reconstructed_surface(samples, pts)
@@ -232,7 +279,10 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
     missing_mask = distance > 0.2
     missing = {c: float(samples.area[missing_mask & (classes == c)].sum()) for c in sorted(set(classes))}
     residual = best.centre_error_m(names, gnss) if best is not None and best.aligned else {}
-    result = Check(sim, route, names, left_out, shift, fitted, missing, residual)
+    result = Check(sim, route, names, left_out, shift, fitted, missing, residual,
+                   unjudged=_why_unjudged(best, apart, fitted, fit))
+    if result.unjudged:
+        progress.note(f"no verdict on the surface: {result.unjudged}")
     _write(result, scene, samples, missing_mask, classes, out_dir)
     return result
 

@@ -245,7 +245,7 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
             work_dir: Path, *, exhaustive_limit: int = 80, max_features: int = MAX_FEATURES, threads: int = -1,
             seed: int = 0, progress=None, matching: str = "covisible", recorded_positions: np.ndarray | None = None,
             neighbour_distance: float = 100.0, neighbours: int = SPATIAL_NEIGHBOURS,
-            mapper: str = "auto") -> SfmResult:
+            mapper: str = "auto", working_px: int | None = None) -> SfmResult:
     """Features, matching and mapping over the photos ``names`` in ``image_dir``.
 
     Up to ``exhaustive_limit`` photos every pair is matched. Above it, ``matching`` "spatial"
@@ -255,7 +255,8 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     given ``pairs`` (indices into ``names``). Features and matches are one pycolmap call
     each, their bars following the rows COLMAP writes. ``mapper``: COLMAP's incremental
     mapper, its global one (GLOMAP: rotation averaging, then all positions at once), or
-    "auto" (``pick_mapper``)."""
+    "auto" (``pick_mapper``). ``working_px``: features are found on the photos scaled down to
+    this longest side (None: full size); COLMAP scales the keypoints back."""
     import time
 
     pycolmap = require_pycolmap()
@@ -275,7 +276,8 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     reader.camera_params = f"{photo.fx},{photo.fy},{photo.cx},{photo.cy}"
     extraction = pycolmap.FeatureExtractionOptions()
     extraction.num_threads = threads
-    extraction.max_image_size = max(photo.width, photo.height)
+    extraction.max_image_size = max(photo.width, photo.height) if working_px is None else \
+        min(max(photo.width, photo.height), int(working_px))
     extraction.sift.max_num_features = max_features
     # The rest of SIFT stays at COLMAP's defaults, as a user's own COLMAP run would have it.
     # Starting at octave 0 instead of -1 (no upsampling) found a quarter of the features and
