@@ -166,7 +166,7 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
                                   setup.start, margin=setup.extra_clearance, spacing=h)
     required = required_edge_views(cover.cands, camera, setup.standoff, vis.getnnz(axis=1),
                                    taken=cover.cands.subset(fixed)) \
-        if settings.edge_views and settings.selection == "shots" else np.zeros(0, dtype=np.int64)
+        if settings.edge_views else np.zeros(0, dtype=np.int64)
     return Problem(samples, reach, cover, vis, rays, fine_job, links_job, lattice_job, fixed, required, fill, lanes)
 
 

@@ -1,13 +1,17 @@
-"""Lanes: runs of photos flown one after the other with one heading and one gimbal pitch.
+"""Lanes: runs of photos flown one after the other, each a step of the frame from the last.
 
 A lane's consecutive photos overlap by construction (``forward_overlap`` of the frame along
-the run), so a lane is matchable and linked in itself, and flown end to end it is a run of
-smooth steps. Two kinds cover a building:
+the run), so a lane is matchable and linked in itself; along a wall it keeps one heading and
+one gimbal pitch. Two kinds cover a building:
 
 - façade lanes: on horizontal sections of the target, at band heights spaced by the frame's
-  height times (1 - ``side_overlap``); each section's outline is split into façades where it
-  turns by more than ``FACADE_TURN_DEG``, and each façade is flown at the standoff along its
-  outward normal, level and square-on, past its ends by a share of the frame's width;
+  height times (1 - ``side_overlap``), level, at a distance out from the walls. Wrapped (the
+  default): the section offset with round corners, square-on along each wall and facing the
+  corner on the arc, so the heading turns round a convex corner in steps no wider than a
+  step along a wall (about 25 deg at the standoff: photos SfM matches), cut into lanes where
+  the offset turns sharply (concave corners). Straight: one lane per façade (the outline cut
+  where it turns by more than ``FACADE_TURN_DEG``), past its ends by ``OVERRUN`` of the frame;
+  these need edge views to link one wall to the next;
 - roof lanes: a nadir grid over the target's upward-facing surface, lanes along the longer
   side of its footprint, the camera's heading along the lane, each photo at the standoff
   above the highest surface within half a frame of it.
@@ -24,12 +28,13 @@ import numpy as np
 import shapely
 from scipy.spatial import cKDTree
 
-from coverplan.shots.candidates import Candidates, _rings, _section_union, keep_safe
+from coverplan.shots.candidates import Candidates, _rings, _section_union, _walk, keep_safe
 from coverplan.shots.reachability import ViewLimits
 
 FORWARD_OVERLAP = 0.6  # consecutive photos of a lane share this much of the frame along the run
 SIDE_OVERLAP = 0.4  # and neighbouring lanes (bands, roof strips) this much across it
 FACADE_TURN_DEG = 30.0  # an outline turning more than this at a vertex starts a new façade
+CUT_TURN_DEG = 45.0  # a wrapped lane is cut where its heading turns more than this between two photos
 OVERRUN = 0.25  # a façade lane runs past each end of its façade by this share of the frame width
 LANE_SOURCE = 5  # Candidates.source of lane photos
 NEAR_WALL = 0.7  # a lane photo keeps this share of its distance from every surface (concave corners)
@@ -106,7 +111,7 @@ def band_heights(ground_z: float, top: float, frame_height: float, band: float, 
 
 
 def facade_lanes(scene, camera, limits: ViewLimits, distance: float, forward_overlap: float = FORWARD_OVERLAP,
-                 side_overlap: float = SIDE_OVERLAP, pitch_deg: float = 0.0) -> Lanes:
+                 side_overlap: float = SIDE_OVERLAP, pitch_deg: float = 0.0, wrap: bool = True) -> Lanes:
     """Lanes along every façade of the target's sections, band above band, square-on to the
     façade and pitched ``pitch_deg`` (negative: down).
 
@@ -122,6 +127,11 @@ def facade_lanes(scene, camera, limits: ViewLimits, distance: float, forward_ove
     pitch_deg : float
         The gimbal pitch; a band looks at its height on the wall from ``distance`` away, so a
         pitched lane flies higher and nearer the wall's line than a level one.
+    wrap : bool
+        Wrap the lanes round the convex corners (the section offset with round corners, its
+        photos facing the corner on the arc, no further apart than along a wall): one lane
+        from concave corner to concave corner, or round the whole ring. False: one straight
+        lane per façade, past its ends by ``OVERRUN`` of the frame.
 
     Returns
     -------
@@ -140,8 +150,13 @@ def facade_lanes(scene, camera, limits: ViewLimits, distance: float, forward_ove
         if section is None or section.is_empty:
             continue
         section = section.simplify(0.05)
-        runs = [_run_photos(run, step, OVERRUN * width, distance * np.cos(tilt))
-                for ring, exterior in _rings(section) for run in _facades(ring, exterior)]
+        out = distance * np.cos(tilt)
+        if wrap:
+            runs = [run for ring in _rings(section.buffer(out, quad_segs=16))
+                    for run in _split_at_turns(*_facing(section, _walk(ring, step)[0]))]
+        else:
+            runs = [_run_photos(run, step, OVERRUN * width, out)
+                    for ring, exterior in _rings(section) for run in _facades(ring, exterior)]
         for pts, nrm in runs:
             if not len(pts):
                 continue
@@ -289,6 +304,31 @@ def _run_photos(run: tuple[np.ndarray, bool], step: float, overrun: float, dista
     offset = s - np.r_[0.0, np.cumsum(length)[:-1]][edge]
     base = starts[edge] + tangent[edge] * offset[:, None]
     return base + normal[edge] * distance, normal[edge]
+
+
+def _facing(section, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``pts`` (k, 2) and the unit vectors (k, 2) from the nearest point of ``section`` to each:
+    square-on to a wall beside it, towards the corner round which it turns."""
+    if not len(pts):
+        return pts, np.zeros((0, 2))
+    near = shapely.get_coordinates(shapely.shortest_line(shapely.points(pts), section))[1::2]
+    away = pts - near
+    return pts, away / np.maximum(np.linalg.norm(away, axis=1, keepdims=True), 1e-12)
+
+
+def _split_at_turns(pts: np.ndarray, normals: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    """A closed ring's photos (k, 2) and outward normals (k, 2) cut where the normal turns by
+    more than ``CUT_TURN_DEG`` from one photo to the next (the offset's concave corners):
+    runs in walking order, or the whole ring when it never turns that much."""
+    if len(pts) == 0:
+        return []
+    turn = np.einsum("ij,ij->i", normals, np.roll(normals, -1, axis=0)) < np.cos(np.radians(CUT_TURN_DEG))
+    cuts = np.flatnonzero(turn)
+    if not len(cuts):
+        return [(pts, normals)]
+    order = np.roll(np.arange(len(pts)), -(cuts[0] + 1))  # start just after a cut
+    pieces = np.split(order, np.flatnonzero(np.isin(order, cuts[1:])) + 1)
+    return [(pts[p], normals[p]) for p in pieces if len(p)]
 
 
 def _pieces(ok: np.ndarray) -> list[np.ndarray]:
