@@ -111,7 +111,8 @@ def band_heights(ground_z: float, top: float, frame_height: float, band: float, 
 
 
 def facade_lanes(scene, camera, limits: ViewLimits, distance: float, forward_overlap: float = FORWARD_OVERLAP,
-                 side_overlap: float = SIDE_OVERLAP, pitch_deg: float = 0.0, wrap: bool = True) -> Lanes:
+                 side_overlap: float = SIDE_OVERLAP, pitch_deg: float = 0.0, wrap: bool = True,
+                 heights: np.ndarray | None = None) -> Lanes:
     """Lanes along every façade of the target's sections, band above band, square-on to the
     façade and pitched ``pitch_deg`` (negative: down).
 
@@ -140,7 +141,8 @@ def facade_lanes(scene, camera, limits: ViewLimits, distance: float, forward_ove
     width, height = camera.footprint(distance)
     step, band = lane_steps(camera, distance, forward_overlap, side_overlap)
     top = float(scene.bounds("target")[1, 2])
-    heights = band_heights(scene.ground_z, top, height, band, limits.min_z)
+    if heights is None:
+        heights = band_heights(scene.ground_z, top, height, band, limits.min_z)
     tilt = np.radians(-pitch_deg)  # down from level
     clearance = scene.clearance_model(limits.security)
     positions, normals, lane = [], [], []
