@@ -66,6 +66,9 @@ def nan_obj(tmp_path):
 # (row in the README table, CLI arguments built from tmp_path, words the message must hold)
 ROWS = {
     "missing file": (lambda t: ["plan", t / "gone.obj", *PLAN, "-o", t / "r.json"], ["gone.obj", "no such file"]),
+    "missing file, and options missing too": (lambda t: ["plan", t / "gone.plan", "-o", t / "r.json"],
+                                              ["gone.plan", "no such file"]),
+    "missing route to evaluate, no scene given": (lambda t: ["evaluate", t / "gone.json"], ["gone.json", "no such file"]),
     "empty file": (lambda t: ["plan", file_with(t, "empty.stl", b""), *PLAN, "-o", t / "r.json"], ["empty.stl", "empty"]),
     "unsupported format": (lambda t: ["plan", file_with(t, "m.xyz", "1 2 3"), *PLAN, "-o", t / "r.json"],
                            ["m.xyz", "unsupported format"]),

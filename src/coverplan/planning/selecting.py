@@ -52,7 +52,8 @@ def select_shots(problem: Problem, setup: Setup, progress: Progress) -> Selectio
     lane_rows = np.zeros(0, dtype=np.int64)
     if len(problem.lanes):
         with progress.stage("lane selection"):
-            lane_rows = select_lanes(problem.vis, problem.lane_of(len(cands)), samples.area, settings.min_views)
+            lane_rows = select_lanes(problem.vis, problem.lane_of(len(cands)), samples.area, settings.min_views,
+                                     positions=cands.positions)
     preset = np.union1d(problem.kept, lane_rows)
     with progress.stage("view selection", unit="shot") as update:
         selection = select_views(problem.vis, problem.rays, settings.min_views, setup.min_triangulation_deg,

@@ -18,7 +18,7 @@ SINGLE_COST = 3.0  # photos' worth of cost of a single shot: a stop, a turn ther
 
 
 def select_lanes(vis: sp.csr_matrix, lane_of: np.ndarray, area: np.ndarray, min_views: int,
-                 need: np.ndarray | None = None) -> np.ndarray:
+                 need: np.ndarray | None = None, positions: np.ndarray | None = None) -> np.ndarray:
     """Candidate rows of the lanes chosen, trimmed.
 
     Parameters
@@ -34,6 +34,9 @@ def select_lanes(vis: sp.csr_matrix, lane_of: np.ndarray, area: np.ndarray, min_
         Views each sample needs.
     need : (samples,) int, optional
         Views each sample still needs (default ``min_views`` wherever a candidate sees it).
+    positions : (candidates, 3) float, optional
+        The candidates' positions: a lane whose last photo is as near its first as its photos
+        are to one another is a closed ring, and is not trimmed (that would open a gap in it).
 
     Returns
     -------
@@ -73,7 +76,30 @@ def select_lanes(vis: sp.csr_matrix, lane_of: np.ndarray, area: np.ndarray, min_
             got[single_vis.indices[single_vis.indptr[pick]:single_vis.indptr[pick + 1]]] = 1
         need = np.maximum(need - got.astype(need.dtype), 0)
     chosen = rows[taken[lanes]]
-    return _trim_ends(vis, chosen, lane_of, min_views, seen)
+    rings = np.zeros(n_lanes, dtype=bool) if positions is None else closed_lanes(lane_of, positions)
+    trimmable = chosen[~rings[lane_of[chosen]]]
+    return np.union1d(_trim_ends(vis, trimmable, lane_of, min_views, seen), chosen[rings[lane_of[chosen]]])
+
+
+def closed_lanes(lane_of: np.ndarray, positions: np.ndarray) -> np.ndarray:
+    """(lanes,) bool: the lanes that close on themselves, their last photo no farther from the
+    first than 1.5 times their longest step (rows of one lane are consecutive, in order)."""
+    rows = np.flatnonzero(lane_of >= 0)
+    lanes = lane_of[rows]
+    n = int(lanes.max()) + 1 if len(rows) else 0
+    out = np.zeros(n, dtype=bool)
+    if not len(rows):
+        return out
+    step = np.linalg.norm(np.diff(positions[rows], axis=0), axis=1)
+    same = lanes[1:] == lanes[:-1]
+    longest = np.zeros(n)
+    np.maximum.at(longest, lanes[1:][same], step[same])
+    first = rows[np.r_[True, ~same]]
+    last = rows[np.r_[~same, True]]
+    gap = np.linalg.norm(positions[last] - positions[first], axis=1)
+    count = np.bincount(lanes, minlength=n)
+    out[lane_of[first]] = (count[lane_of[first]] >= 3) & (gap <= 1.5 * longest[lane_of[first]])
+    return out
 
 
 def _worth(counts: sp.csr_matrix, need: np.ndarray, area: np.ndarray) -> np.ndarray:
