@@ -193,12 +193,13 @@ def test_lanes_plan_is_safe_and_covered_by_independent_checks(gabled_lanes):
 
 def test_lanes_are_flown_end_to_end(gabled_lanes):
     """Most photos are lane photos, and the flight turns the camera less often than the
-    shot-by-shot plan of the same house, at no more photos."""
+    shot-by-shot plan of the same house, at no more than a fifth more photos (its edge views
+    come on top of the lanes)."""
     _scene, route, shots = gabled_lanes
     assert route.metrics["lane_shots"] >= 0.5 * route.shot.sum() and route.metrics["lanes"] >= 2
-    assert route.params["selection"] == "lanes" and not route.params["edge_views"]
+    assert route.params["selection"] == "lanes" and route.params["edge_views"]
     assert route_step_shape(route)[0] > route_step_shape(shots)[0] + 5.0
-    assert route.shot.sum() <= shots.shot.sum()
+    assert route.shot.sum() <= 1.2 * shots.shot.sum()
 
 
 def test_selection_on_the_command_line(tmp_path, capsys):

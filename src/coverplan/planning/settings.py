@@ -101,8 +101,8 @@ class PlanSettings:
         Take a photo from the bisector of the two faces every frame width along each edge
         where the surface turns by 45 deg or more (``candidates.edge_views``), seeing both
         faces alike, so that SfM joins each face to the next; False: without them. None (the
-        default): on under the ``"sfm"`` rule with the ``"shots"`` selection, off under the
-        thesis's rule and under ``"lanes"`` (whose lanes wrap round the corners instead).
+        default): on under the ``"sfm"`` rule (lanes need them too: wrapped round a corner
+        alone, they split in field draws), off under the thesis's.
     reversal_steps : float
         How much path the tour gives up to avoid one reversal, a photo where the direction of
         travel turns by more than 90 deg and the drone must stop, in typical steps (the median
@@ -190,8 +190,7 @@ class PlanSettings:
             raise ParameterError(f"min views must be a whole number >= 1, got {min_views!r}")
         put("min_views", int(min_views))
         put("match", (self.match or MatchRule()) if self.rule == "sfm" else None)
-        put("edge_views", (self.rule == "sfm" and self.selection == "shots") if self.edge_views is None
-            else bool(self.edge_views))
+        put("edge_views", self.rule == "sfm" if self.edge_views is None else bool(self.edge_views))
         if not 0 <= float(self.min_triangulation_deg) < 90:
             raise ParameterError(f"min triangulation angle must be in [0, 90) degrees, got {self.min_triangulation_deg!r}")
         if self.match and not float(self.min_triangulation_deg) < self.match.max_pair_deg:
