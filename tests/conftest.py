@@ -10,7 +10,8 @@ def pytest_addoption(parser):
 
 # The longest groups of the suite (minutes each), started first so that the two workers of
 # ``-n auto --dist loadgroup`` share them instead of one ending the run with a long tail.
-LONG_GROUPS = ("field", "random_scenes_1", "random_scenes_2", "photos_check", "benchmark_reconstruction")
+LONG_GROUPS = ("field", "random_scenes_1", "random_scenes_2", "photos_check", "benchmark_reconstruction",
+               "random_scenes_lanes", "real_photos")
 
 
 def _group(item) -> str | None:

@@ -137,7 +137,7 @@ def flat_target(tmp_path, half: float = 80.0) -> Path:
 @pytest.mark.xdist_group("real_photos")
 def test_check_reads_and_rebuilds_a_real_dji_flight(tmp_path, capsys):
     """18 photos of a DJI FC300S as the camera wrote them (EXIF GPS, DJI XMP), features found at
-    640 px: one model of every photo, camera centres within a GNSS error of their tags, the
+    480 px: one model of every photo, camera centres within a GNSS error of their tags, the
     model fitted onto a flat target at take-off height (GPS altitude less the relative altitude)
     with the move reported, and no figure the user cannot read."""
     folder = REAL / "brighton-beach"
@@ -148,7 +148,7 @@ def test_check_reads_and_rebuilds_a_real_dji_flight(tmp_path, capsys):
     takeoff = float(np.median([t.gps_altitude_m - t.relative_altitude_m for t in tags]))
     out = tmp_path / "check"
     code = main(["check", str(folder), "--target", str(flat_target(tmp_path)), "--geo-origin", str(lat), str(lon),
-                 str(takeoff), "--working-px", "640", "-o", str(out)])
+                 str(takeoff), "--working-px", "480", "-o", str(out)])
     captured = capsys.readouterr()
     assert code == 0
     assert "nan" not in captured.out and "DESIGN" not in captured.out
@@ -179,7 +179,7 @@ def test_check_of_a_real_gps_only_flight_says_why_it_gives_no_verdict(tmp_path, 
     lat, lon = np.mean([t.lat for t in tags]), np.mean([t.lon for t in tags])
     out = tmp_path / "check"
     code = main(["check", str(folder), "--target", str(flat_target(tmp_path)), "--geo-origin", str(lat), str(lon),
-                 "300", "--working-px", "640", "-o", str(out)])
+                 "300", "--working-px", "480", "-o", str(out)])
     captured = capsys.readouterr()
     assert code == 0 and "nan" not in captured.out
     result = json.loads((out / "check.json").read_text())
