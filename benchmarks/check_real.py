@@ -36,8 +36,16 @@ def flat_target(folder: Path, half: float = 80.0) -> Path:
     return path
 
 
-def row_for(name: str, ground: float | None, width: int, tmp: Path) -> dict:
+def row_for(name: str, ground: float | None, width: int, tmp: Path, first: int | None = None) -> dict:
     folder = REAL / name
+    if first is not None:  # the first photos only, copied as they are
+        import shutil
+
+        part = tmp / f"{name}_first_{first}"
+        part.mkdir(exist_ok=True)
+        for f in photo_files(folder)[:first]:
+            shutil.copy2(f, part / f.name)
+        folder = part
     tags = [read_photo(f) for f in photo_files(folder)]
     lat, lon = float(np.mean([t.lat for t in tags])), float(np.mean([t.lon for t in tags]))
     if ground is None:
@@ -57,7 +65,7 @@ def row_for(name: str, ground: float | None, width: int, tmp: Path) -> dict:
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--quick", action="store_true", help="the DJI set at 480 px")
+    parser.add_argument("--quick", action="store_true", help="the DJI set's first 6 photos at 480 px")
     parser.add_argument("--widths", nargs="+", type=int, default=[640, 1000, 2000])
     args = parser.parse_args(argv)
     sets = {"brighton-beach": None} if args.quick else SETS
@@ -66,7 +74,7 @@ def main(argv=None):
     with tempfile.TemporaryDirectory() as tmp:
         for name, ground in sets.items():
             for width in widths:
-                rows.append(row_for(name, ground, width, Path(tmp)))
+                rows.append(row_for(name, ground, width, Path(tmp), first=6 if args.quick else None))
                 print(f"  {name} at {width} px", flush=True)
     print(table(rows, [("set", "set", ""), ("photos", "photos", "d"), ("working_px", "px", "d"),
                        ("features_s_per_photo", "features s/photo", ".2f"), ("matching_s", "matching s", ".1f"),

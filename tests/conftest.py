@@ -19,7 +19,15 @@ def _group(item) -> str | None:
     return (mark.args[0] if mark.args else mark.kwargs.get("name")) if mark else None
 
 
+# The fast tier (``pytest -m "not slow_sim"``) leaves out the long groups and every test that
+# renders photos and runs COLMAP, or runs the benchmark scripts.
+SLOW_SIM_MODULES = ("test_simulate", "test_check", "test_benchmarks")
+
+
 def pytest_collection_modifyitems(config, items):
+    for item in items:
+        if _group(item) in LONG_GROUPS or item.module.__name__.rpartition(".")[2] in SLOW_SIM_MODULES:
+            item.add_marker(pytest.mark.slow_sim)
     items.sort(key=lambda item: LONG_GROUPS.index(_group(item)) if _group(item) in LONG_GROUPS else len(LONG_GROUPS))
     if config.getoption("--slow"):
         return
