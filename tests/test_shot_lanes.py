@@ -15,11 +15,12 @@ from coverplan.flight.tour import lane_costs
 from coverplan.planning.settings import PlanSettings
 from coverplan.planning.setup import resolve
 from coverplan.shots.candidates import Candidates
-from coverplan.shots.lane_selection import select_lanes
+from coverplan.shots.lane_selection import ring_pairs, select_lanes
 from coverplan.shots.lanes import (
     LANE_SOURCE,
     Lanes,
     band_heights,
+    courtyard_lanes,
     facade_lanes,
     lane_steps,
     roof_lanes,
@@ -67,27 +68,62 @@ def test_straight_facade_lanes_face_each_wall_square_on_from_the_standoff():
     assert polyline_min_distance(p, scene.meshes, 0.5) >= 0.7 * d - 1e-6
 
 
-def test_wrapped_lanes_turn_round_each_corner_in_matchable_steps():
+@pytest.mark.parametrize("share", [0.0, 0.5, 1.0])
+def test_wrapped_lanes_turn_round_each_corner_in_smooth_or_bisector_steps(share):
     """The same box, wrapped: one closed lane per band the standoff from the walls all round
-    (round corners), square-on along the walls and facing the corner on the arcs, the heading
-    turning by no more than 30 deg from one photo to the next, the whole way round once."""
+    (round corners), square-on along the walls and facing the corner on the arcs; round the
+    smooth corners the heading turns by at most 10 deg from one photo to the next, round the
+    others in two 45 deg steps with a photo on the bisector; the whole way round once."""
     scene = scene_from_meshes([box(0, 0, 0, 15, 15, 8)])
     setup = setup_for(scene)
     d = setup.standoff
-    lanes = facade_lanes(scene, setup.camera, setup.limits, d)
-    assert lanes.count == 1
-    p, heading = lanes.cands.positions, lanes.cands.heading_deg
+    lanes = facade_lanes(scene, setup.camera, setup.limits, d, smooth_share=share)
+    assert lanes.count == 1 and lanes.closed.tolist() == [True]
+    # the last photo is the first again; the pieces (a wall each, cut mid-corner) cover the ring
+    c = lanes.cands
+    np.testing.assert_allclose(c.positions[-1], c.positions[0])
+    assert len(lanes.pieces) == 4 and lanes.pieces[0, 1] == 0 and lanes.pieces[-1, 2] == len(lanes)
+    assert np.all(lanes.pieces[1:, 1] == lanes.pieces[:-1, 2] - 1)  # neighbouring pieces share a photo
+    p, heading = c.positions[:-1], c.heading_deg[:-1]
     # the distance to the box's footprint is the standoff everywhere (corners included)
     gap = np.hypot(np.maximum(np.maximum(-p[:, 0], p[:, 0] - 15), 0), np.maximum(np.maximum(-p[:, 1], p[:, 1] - 15), 0))
     np.testing.assert_allclose(gap, d, atol=0.05 * d)
     turns = np.abs((np.diff(np.r_[heading, heading[:1]]) + 180.0) % 360.0 - 180.0)
-    assert turns.max() <= 30.0 and abs(turns.sum() - 360.0) < 1.0
+    assert abs(turns.sum() - 360.0) < 1.0 and turns.max() <= 45.0 + 0.5
+    turning = turns > 0.5
+    smooth_steps = int(np.count_nonzero(turning & (turns <= 10.0)))
+    coarse_steps = int(np.count_nonzero(turns > 10.0))
+    corners_smooth = round(4 * share)
+    assert coarse_steps == 2 * (4 - corners_smooth)
+    assert smooth_steps >= 9 * corners_smooth
     # every photo faces the box: the look direction points at the footprint's nearest point
     look = np.column_stack([np.sin(np.radians(heading)), np.cos(np.radians(heading))])
     nearest = np.clip(p[:, :2], 0, 15)
     to = (nearest - p[:, :2]) / np.linalg.norm(nearest - p[:, :2], axis=1, keepdims=True)
     assert np.einsum("ij,ij->i", look, to).min() > np.cos(np.radians(3.0))
     assert polyline_min_distance(p, scene.meshes, 0.5) >= 0.9 * d
+    # along a wall (where the heading holds) no further apart than the lane's step
+    step, _band = lane_steps(setup.camera, d)
+    assert np.linalg.norm(np.diff(p, axis=0), axis=1)[~turning[:-1]].max() <= step + 1e-6
+
+
+def test_smooth_walk_pivots_at_a_concave_corner():
+    """An L's offset has a concave corner: there the facing jumps by 90 deg, and a smooth walk
+    turns the camera in place in steps of at most 10 deg instead."""
+    from shapely.geometry import Polygon
+
+    from coverplan.shots.lane_rings import smooth_walk
+
+    ell = Polygon([(0, 0), (20, 0), (20, 10), (10, 10), (10, 20), (0, 20)])
+    ring = (np.asarray(ell.buffer(4.0, quad_segs=16).exterior.coords), True)
+    xy, away = smooth_walk(ring, ell, 3.0, smooth_share=1.0)
+    a = np.degrees(np.arctan2(away[:, 1], away[:, 0]))
+    turns = np.abs((np.diff(np.r_[a, a[:1]]) + 180.0) % 360.0 - 180.0)
+    assert turns.max() <= 10.0
+    moved = np.linalg.norm(np.diff(np.vstack([xy, xy[:1]]), axis=0), axis=1)
+    pivot = (moved < 0.25) & (turns > 1.0)
+    assert pivot.sum() >= 8  # nine steps of 10 deg where the walk hardly moves: the concave corner (14, 14)
+    np.testing.assert_allclose(xy[np.flatnonzero(pivot)], [[14.0, 14.0]] * int(pivot.sum()), atol=0.3)
 
 
 def test_band_heights_cover_the_wall_from_foot_to_top():
@@ -99,19 +135,19 @@ def test_band_heights_cover_the_wall_from_foot_to_top():
     assert band_heights(0.0, 6.0, 10.0, 6.0, 3.0).tolist() == [3.0]  # one band fits; lifted to the floor
 
 
-def test_courtyard_lanes_face_the_courtyard_walls():
-    """Near lanes fly inside a courtyard the standoff does not fit, looking at its walls."""
-    scene = load_scene(MESHES / "courtyard.obj")
+def test_courtyard_lanes_look_across_the_courtyard():
+    """Courtyard lanes fly inside a courtyard the standoff does not fit, close to its walls,
+    looking across it at the far walls."""
+    scene = load_scene(MESHES / "courtyard.obj")  # a 14 x 14 m courtyard (18..32) in a 30 x 30 m block
     setup = setup_for(scene)
-    near = 0.5 * setup.standoff
-    lanes = facade_lanes(scene, setup.camera, setup.limits, near)
+    offset = 4.0
+    lanes = courtyard_lanes(scene, setup.camera, setup.limits, offset, setup.standoff)
     p = lanes.cands.positions
-    inside = (p[:, 0] > 18) & (p[:, 0] < 32) & (p[:, 1] > 18) & (p[:, 1] < 32)
-    assert inside.sum() >= 8
+    assert len(p) >= 8 and np.all((p[:, :2] > 18) & (p[:, :2] < 32))
     look = np.column_stack([np.sin(np.radians(lanes.cands.heading_deg)), np.cos(np.radians(lanes.cands.heading_deg))])
-    away = np.einsum("ij,ij->i", look[inside], p[inside, :2] - [25.0, 25.0])
-    assert np.all(away > 0)  # from inside the courtyard, every photo looks out at a wall
-    assert polyline_min_distance(p[inside], scene.meshes, 0.5) >= 0.7 * near - 1e-6
+    across = np.einsum("ij,ij->i", look, [25.0, 25.0] - p[:, :2])
+    assert np.all(across > 0)  # every photo looks across the courtyard's middle
+    assert polyline_min_distance(p, scene.meshes, 0.5) >= 0.9 * offset
 
 
 def test_roof_lanes_fly_a_nadir_grid_the_standoff_over_the_roof():
@@ -120,7 +156,7 @@ def test_roof_lanes_fly_a_nadir_grid_the_standoff_over_the_roof():
     samples = sample_surface(scene, setup.spacing)
     lanes = roof_lanes(scene, samples, setup.camera, setup.limits, setup.standoff)
     c = lanes.cands
-    assert lanes.count >= 1 and np.all(c.pitch_deg == -90.0)
+    assert lanes.count == 1 and len(lanes.pieces) >= 2 and np.all(c.pitch_deg == -90.0)  # a strip a piece
     np.testing.assert_allclose(c.positions[:, 2], 6.0 + setup.standoff, atol=1e-6)
     assert len(np.unique(c.heading_deg.round(6))) == 1
     # lanes along the roof's long side (x): the heading is east or west
@@ -129,13 +165,23 @@ def test_roof_lanes_fly_a_nadir_grid_the_standoff_over_the_roof():
 
 
 def test_safe_lanes_cut_a_lane_where_a_photo_is_not_safe():
-    lanes = Lanes(Candidates(np.array([[0, -9, 5], [5, -9, 5], [10, -9, 5], [15, -9, 5.0]]), np.zeros(4), np.zeros(4),
-                             np.full(4, LANE_SOURCE, np.int8)), np.zeros(4, dtype=np.int64))
+    lanes = Lanes.runs(Candidates(np.array([[0, -9, 5], [5, -9, 5], [10, -9, 5], [15, -9, 5.0]]), np.zeros(4),
+                                  np.zeros(4), np.full(4, LANE_SOURCE, np.int8)), np.zeros(4, dtype=np.int64))
     scene = scene_from_meshes([box(0, 0, 0, 15, 15, 8)], [box(4, -10, 0, 6, -8, 10)])  # a pole at the second
     setup = setup_for(scene)
     kept = safe_lanes(scene, lanes, setup.limits, setup.extra_clearance)
     assert kept.cands.positions[:, 0].tolist() == [0.0, 10.0, 15.0]
     assert kept.lane.tolist() == [0, 1, 1]  # split where the pole's photo was dropped
+    assert kept.pieces.tolist() == [[0, 0, 1], [1, 1, 3]]
+
+
+def _lanes(lane, pieces=None, closed=None):
+    lane = np.asarray(lane, dtype=np.int64)
+    cands = Candidates(np.zeros((len(lane), 3)), np.zeros(len(lane)), np.zeros(len(lane)),
+                       np.full(len(lane), LANE_SOURCE, np.int8))
+    if pieces is None:
+        return Lanes.runs(cands, lane)
+    return Lanes(cands, lane, np.asarray(pieces, dtype=np.int64), np.asarray(closed, dtype=bool))
 
 
 def test_select_lanes_takes_the_lane_and_trims_its_spare_end():
@@ -144,19 +190,36 @@ def test_select_lanes_takes_the_lane_and_trims_its_spare_end():
     photo is kept only while a sample needs it."""
     rows = [[1, 1, 1, 0], [1, 1, 1, 0], [1, 1, 1, 1], [0, 0, 0, 1], [0, 0, 0, 1]]
     vis = sp.csr_matrix(np.array(rows, dtype=float))
-    lane_of = np.array([0, 0, 0, -1, -1])
-    chosen = select_lanes(vis, lane_of, np.ones(4), min_views=2)
+    chosen = select_lanes(vis, _lanes([0, 0, 0]), np.ones(4), min_views=2)
     # The first photo is spare (samples 0-2 keep two views without it); the last is not.
     assert chosen.tolist() == [1, 2]
-    # Without the lane's last photo, a single does better for sample 3: nothing of the lane's end is kept for it.
     vis_b = sp.csr_matrix(np.array([[1, 1, 1, 0], [1, 1, 1, 0], [1, 1, 1, 0], [0, 0, 0, 1], [0, 0, 0, 1]], float))
-    assert select_lanes(vis_b, lane_of, np.ones(4), min_views=2).tolist() == [1, 2]
+    assert select_lanes(vis_b, _lanes([0, 0, 0]), np.ones(4), min_views=2).tolist() == [1, 2]
 
 
-def test_lane_costs_free_only_between_consecutive_photos_of_a_lane():
-    lane_of = np.array([0, 0, 0, 1, 1, -1])
+def test_select_lanes_takes_pieces_and_a_ring_whole_without_its_repeat():
+    """A ring of four photos (rows 0-3, row 4 the first again) in two pieces, each seeing its
+    own two samples twice: both pieces are taken, so the ring is flown once round, without
+    the repeated photo and untrimmed; with one piece's samples seen by nothing else needing
+    views, only the other piece is taken, and trimmed as a run."""
+    ring = _lanes([0, 0, 0, 0, 0], pieces=[[0, 0, 3], [0, 2, 5]], closed=[True])
+    rows = [[1, 1, 0, 0], [1, 1, 0, 0], [1, 1, 1, 1], [0, 0, 1, 1], [0, 0, 1, 1]]
+    vis = sp.csr_matrix(np.array(rows, dtype=float))
+    assert select_lanes(vis, ring, np.ones(4), min_views=2).tolist() == [0, 1, 2, 3]
+    need = np.array([2, 2, 0, 0])
+    assert select_lanes(vis, ring, np.ones(4), min_views=2, need=need).tolist() == [1, 2]
+
+
+def test_ring_pairs_join_a_ring_across_its_repeated_photo():
+    ring = _lanes([0, 0, 0, 0, 0, 1, 1], pieces=[[0, 0, 3], [0, 2, 5], [1, 5, 7]], closed=[True, False])
+    pairs = {tuple(p) for p in ring_pairs(ring, np.array([0, 1, 2, 3, 5, 6])).tolist()}
+    assert pairs == {(0, 1), (1, 2), (2, 3), (3, 0), (5, 6)}
+
+
+def test_lane_costs_free_only_between_photos_flown_one_after_the_other():
+    pairs = np.array([[0, 1], [1, 2], [3, 4]])
     shots = np.array([2, 0, 1, 4, 3, 5])  # node k + 1 is shot k
-    cost = lane_costs(lane_of, shots, 7.0)
+    cost = lane_costs(pairs, shots, 7.0)
     free = {(1, 3), (3, 2), (4, 5)}  # candidates 2-1, 0-1, 3-4 as nodes (1-based)
     for a in range(1, 7):
         for b in range(1, 7):

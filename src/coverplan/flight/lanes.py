@@ -6,7 +6,8 @@ scribble turns the camera and turns back at every photo. Two figures tell them a
 - a *smooth step* joins two consecutive photos whose heading differs by at most 10 deg and
   whose gimbal pitch by at most 5 deg;
 - a *reversal* is a photo where the direction of travel turns by more than 90 deg (the step
-  to it and the step from it point in opposite half-spaces).
+  to it and the step from it point in opposite half-spaces), to within ``REVERSAL_TOLERANCE_DEG`` of
+  tolerance: a lawnmower's square turn is not one.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from coverplan.geometry.orientation import heading_change_deg
 
 SMOOTH_HEADING_DEG = 10.0
 SMOOTH_PITCH_DEG = 5.0
+REVERSAL_TOLERANCE_DEG = 1.0
 
 
 def smooth_step(heading_a, pitch_a, heading_b, pitch_b) -> np.ndarray:
@@ -54,7 +56,8 @@ def step_shape(positions, heading_deg, pitch_deg) -> tuple[float, float]:
     smooth = 100.0 * float(np.mean(smooth_step(heading[:-1], pitch[:-1], heading[1:], pitch[1:])))
     step = np.diff(positions, axis=0)
     step = step[np.linalg.norm(step, axis=1) > 1e-6]
-    back = np.einsum("ij,ij->i", step[:-1], step[1:]) < 0.0
+    norm = np.linalg.norm(step, axis=1)
+    back = np.einsum("ij,ij->i", step[:-1], step[1:]) < -np.sin(np.radians(REVERSAL_TOLERANCE_DEG)) * norm[:-1] * norm[1:]
     return smooth, 100.0 * float(back.sum()) / n
 
 

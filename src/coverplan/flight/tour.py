@@ -322,33 +322,31 @@ def reaim_costs(heading_deg, pitch_deg, reaim_m: float) -> np.ndarray:
     return np.where(rough, float(reaim_m), 0.0)
 
 
-def lane_costs(lane_of: np.ndarray, shots: np.ndarray, lane_m: float) -> np.ndarray:
-    """(n + 1, n + 1) ``lane_m`` between two nodes that are not consecutive photos of one lane,
-    else 0; node 0 (the start) costs nothing. The tour then flies every lane end to end and
-    enters and leaves lanes only at their ends, unless that costs more than ``lane_m`` of path.
+def lane_costs(pairs: np.ndarray, shots: np.ndarray, lane_m: float) -> np.ndarray:
+    """(n + 1, n + 1) ``lane_m`` between two nodes that are not photos flown one after the other
+    in a lane, else 0; node 0 (the start) costs nothing. The tour then flies every lane end to
+    end and enters and leaves lanes only at their ends, unless that costs more than ``lane_m``
+    of path.
 
     Parameters
     ----------
-    lane_of : (candidates,) int
-        The lane of each candidate, -1 outside lanes; a lane's photos are consecutive rows.
+    pairs : (k, 2) int
+        Candidate indices of the lanes' consecutive photos (``lane_selection.ring_pairs``).
     shots : (n,) int
         The candidate index of each shot (node k + 1).
     lane_m : float
         Metres of path that breaking a lane is worth.
     """
     shots = np.asarray(shots, dtype=np.int64)
-    lane = lane_of[shots]
     n = len(shots) + 1
     cost = np.full((n, n), float(lane_m))
     cost[0, :] = cost[:, 0] = 0.0
-    in_lane = np.flatnonzero(lane >= 0)
-    pos = {int(c): k for k, c in zip(in_lane, shots[in_lane])}
-    nxt = np.array([pos.get(int(c) + 1, -1) for c in shots[in_lane]], dtype=np.int64)
-    ok = nxt >= 0
-    a, b = in_lane[ok], nxt[ok]
-    same = lane[a] == lane[b]
-    a, b = a[same] + 1, b[same] + 1
-    cost[a, b] = cost[b, a] = 0.0
+    node = np.full(int(max(shots.max(initial=-1), np.max(pairs, initial=-1))) + 1, -1, dtype=np.int64)
+    node[shots] = np.arange(1, n)
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    a, b = node[pairs[:, 0]], node[pairs[:, 1]]
+    ok = (a > 0) & (b > 0)
+    cost[a[ok], b[ok]] = cost[b[ok], a[ok]] = 0.0
     np.fill_diagonal(cost, 0.0)
     return cost
 

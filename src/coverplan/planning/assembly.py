@@ -108,7 +108,7 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
         "selected_views": int(len(chosen)),
         "sharp_view_shots": int(selection.sharpening + gaps.fine_sharp),
         "framed_view_shots": int(selection.framing),
-        "edge_view_shots": int(len(np.intersect1d(chosen, problem.required))),
+        "edge_view_shots": int(len(np.intersect1d(chosen, selection.required))),
         "lane_shots": int(np.count_nonzero(chosen < len(problem.lanes))),
         "lanes": int(len(np.unique(problem.lanes.lane[chosen[chosen < len(problem.lanes)]]))),
         "linking_shots": int(max(picked - selection.covering - selection.sharpening - selection.framing, 0)

@@ -31,6 +31,7 @@ from coverplan.progress import Progress
 from coverplan.shots.candidates import (
     Candidates,
 )
+from coverplan.shots.lane_selection import ring_pairs
 
 
 @dataclass(frozen=True)
@@ -93,7 +94,8 @@ def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progr
         heading, pitch = np.concatenate([[0.0], shots.heading_deg]), np.concatenate([[0.0], shots.pitch_deg])
         reaim = reaim_costs(heading, pitch, reaim_m)
         if len(problem.lanes):
-            reaim = reaim + lane_costs(problem.lane_of(len(cands)), new, settings.lane_steps * step)
+            reaim = reaim + lane_costs(ring_pairs(problem.lanes, new[new < len(problem.lanes)]), new,
+                                       settings.lane_steps * step)
         order = plan_tour(closure, specials, reversal_m, reaim)
     stops = Stops(heading, pitch,
                   float(setup.start[2] - limits.ground_at(setup.start[None, :2])[0]))

@@ -30,7 +30,7 @@ from coverplan.shots.framing import (
     short_of_framing,
     view_fill,
 )
-from coverplan.shots.lanes import NEAR_LANE_SHARE, Lanes, facade_lanes, roof_lanes, safe_lanes
+from coverplan.shots.lanes import NEAR_LANE_SHARES, Lanes, courtyard_lanes, facade_lanes, roof_lanes, safe_lanes
 from coverplan.shots.reachability import (
     Reachability,
     reachability,
@@ -97,11 +97,15 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
     lanes = Lanes.empty()
     if settings.selection == "lanes":
         with progress.stage("lanes"):
-            near = max(NEAR_LANE_SHARE * setup.standoff, 1.2 * (limits.security + setup.extra_clearance))
+            nearest = 1.2 * (limits.security + setup.extra_clearance)
             lanes = Lanes.empty()
-            for distance in (setup.standoff, near):  # near: courtyards and recesses the standoff does not fit
+            # Nearer in: courtyards and recesses the standoff does not fit.
+            for distance in sorted({setup.standoff} | {max(share * setup.standoff, nearest) for share in NEAR_LANE_SHARES},
+                                   reverse=True):
                 lanes = lanes.concat(facade_lanes(scene, camera, limits, distance, settings.forward_overlap,
                                                   settings.side_overlap))
+            lanes = lanes.concat(courtyard_lanes(scene, camera, limits, 1.1 * nearest, setup.standoff,
+                                                 settings.forward_overlap, settings.side_overlap))
             lanes = lanes.concat(roof_lanes(scene, samples, camera, limits, setup.standoff, settings.forward_overlap,
                                             settings.side_overlap))
             lanes = safe_lanes(scene, lanes, limits, setup.extra_clearance)

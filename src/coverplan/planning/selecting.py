@@ -10,6 +10,7 @@ from coverplan.errors import PlanningError
 from coverplan.planning.problem import Problem
 from coverplan.planning.setup import Setup
 from coverplan.progress import Progress
+from coverplan.shots.candidates import required_edge_views
 from coverplan.shots.framing import (
     framed_view_matrix,
     view_fill,
@@ -31,10 +32,12 @@ class Selection:
     lp_bound: float | None
     lp_stopped: bool  # the LP reached its time limit (selection.Selection.lp_stopped)
     lane_rows: np.ndarray  # (k,) int candidate indices of the lane photos chosen (settings.selection "lanes")
+    required: np.ndarray  # (k,) int candidate indices of the edge views taken, those no lane photo stands in for
 
     def keep(self, problem: Problem) -> np.ndarray:
-        """(k,) candidate indices no later stage drops: the problem's kept ones and the lanes."""
-        return np.union1d(problem.kept, self.lane_rows)
+        """(k,) candidate indices no later stage drops: the photos already taken, the edge views
+        and the lanes."""
+        return np.union1d(np.union1d(problem.fixed, self.required), self.lane_rows)
 
 
 def select_shots(problem: Problem, setup: Setup, progress: Progress) -> Selection:
@@ -50,11 +53,14 @@ def select_shots(problem: Problem, setup: Setup, progress: Progress) -> Selectio
     wanted = sharp_view_matrix(cam, pt, inc, len(cands), len(samples)) \
         if lean(match) and match.sharp_views else None
     lane_rows = np.zeros(0, dtype=np.int64)
+    required = problem.required
     if len(problem.lanes):
         with progress.stage("lane selection"):
-            lane_rows = select_lanes(problem.vis, problem.lane_of(len(cands)), samples.area, settings.min_views,
-                                     positions=cands.positions)
-    preset = np.union1d(problem.kept, lane_rows)
+            lane_rows = select_lanes(problem.vis, problem.lanes, samples.area, settings.min_views)
+            if settings.edge_views:  # a lane photo round a corner stands in for the corner's edge views
+                required = required_edge_views(cands, setup.camera, setup.standoff, problem.vis.getnnz(axis=1),
+                                               taken=cands.subset(np.union1d(problem.fixed, lane_rows)))
+    preset = np.union1d(np.union1d(problem.fixed, required), lane_rows)
     with progress.stage("view selection", unit="shot") as update:
         selection = select_views(problem.vis, problem.rays, settings.min_views, setup.min_triangulation_deg,
                                  lp_time_limit=settings.lp_time_limit, progress=update, max_pair_deg=setup.max_pair_deg,
@@ -79,7 +85,8 @@ def select_shots(problem: Problem, setup: Setup, progress: Progress) -> Selectio
         reason = problem.reach.reason
         raise PlanningError("no safe viewpoint can image any part of the target: "
                             + (reason[0] if len(reason) and reason[0] else "check the security distance and GSD"))
-    return Selection(chosen, covering, sharpening, framing, selection.lp_bound, selection.lp_stopped, lane_rows)
+    return Selection(chosen, covering, sharpening, framing, selection.lp_bound, selection.lp_stopped, lane_rows,
+                     required)
 
 
 def lean(match: MatchRule | None) -> bool:

@@ -2,19 +2,22 @@
 
 A lane's consecutive photos overlap by construction (``forward_overlap`` of the frame along
 the run), so a lane is matchable and linked in itself; along a wall it keeps one heading and
-one gimbal pitch. Two kinds cover a building:
+one gimbal pitch. Three kinds cover a building:
 
 - façade lanes: on horizontal sections of the target, at band heights spaced by the frame's
   height times (1 - ``side_overlap``), level, at a distance out from the walls. Wrapped (the
-  default): the section offset with round corners, square-on along each wall and facing the
-  corner on the arc, so the heading turns round a convex corner in steps no wider than a
-  step along a wall (about 25 deg at the standoff: photos SfM matches), cut into lanes where
-  the offset turns sharply (concave corners). Straight: one lane per façade (the outline cut
-  where it turns by more than ``FACADE_TURN_DEG``), past its ends by ``OVERRUN`` of the frame;
-  these need edge views to link one wall to the next;
-- roof lanes: a nadir grid over the target's upward-facing surface, lanes along the longer
-  side of its footprint, the camera's heading along the lane, each photo at the standoff
-  above the highest surface within half a frame of it.
+  default): one closed lane per ring of the section offset with round corners, square-on
+  along each wall; round half its corners the heading turns in smooth steps (at most
+  ``LANE_TURN_DEG``), round the others in two steps with a photo on the corner's bisector
+  (``smooth_walk``), and at the offset's concave corners the photos pivot in place. A ring is
+  offered in pieces, a wall or a run of walls between corners, so that the cover can take
+  part of it (``ring_lane``). Straight: one lane per façade, past its ends by ``OVERRUN`` of
+  the frame;
+- courtyard lanes: round the inside of a courtyard too narrow for the standoff, close to its
+  walls, looking across at the far ones (``courtyard_lanes``);
+- roof lanes: a nadir grid over the target's upward-facing surface, strips along the longer
+  side of its footprint flown as a lawnmower, one heading throughout, each photo at the
+  standoff above the highest surface within half a frame of it; each strip a piece.
 
 Lanes are clipped as candidates are (altitude, ceiling, zones, clearance: ``keep_safe``); a
 lane cut by the clipping becomes two lanes.
@@ -28,23 +31,24 @@ import numpy as np
 import shapely
 from scipy.spatial import cKDTree
 
-from coverplan.shots.candidates import Candidates, _rings, _section_union, _walk, keep_safe
+from coverplan.shots.candidates import Candidates, _rings, _section_union, keep_safe
+from coverplan.shots.lane_rings import SMOOTH_SHARE, ring_lane, smooth_walk
 from coverplan.shots.reachability import ViewLimits
 
 FORWARD_OVERLAP = 0.6  # consecutive photos of a lane share this much of the frame along the run
 SIDE_OVERLAP = 0.4  # and neighbouring lanes (bands, roof strips) this much across it
 FACADE_TURN_DEG = 30.0  # an outline turning more than this at a vertex starts a new façade
-CUT_TURN_DEG = 45.0  # a wrapped lane is cut where its heading turns more than this between two photos
 OVERRUN = 0.25  # a façade lane runs past each end of its façade by this share of the frame width
 LANE_SOURCE = 5  # Candidates.source of lane photos
 NEAR_WALL = 0.7  # a lane photo keeps this share of its distance from every surface (concave corners)
-NEAR_LANE_SHARE = 0.5  # façade lanes are also offered at this share of the standoff
+NEAR_LANE_SHARES = (0.7,)  # façade lanes are also offered at these shares of the standoff
 ROOF_NORMAL_Z = 0.3  # samples facing up at least this much are roof for the roof lanes
 
 
 @dataclass(frozen=True)
 class Lanes:
-    """Lane photos and the lane each belongs to, in flight order within each lane.
+    """Lane photos, the lane each belongs to, in flight order within each lane, and the pieces
+    of lanes the cover chooses from.
 
     Attributes
     ----------
@@ -52,10 +56,19 @@ class Lanes:
         The photos, ``source`` ``LANE_SOURCE``; a lane's photos are consecutive rows.
     lane : (n,) int
         The lane of each photo, 0 .. ``count`` - 1.
+    pieces : (p, 3) int
+        Per piece: its lane, first row and the row after its last. The pieces of a lane cover
+        it; neighbouring pieces share their end row. A lane chosen piece by piece is one run
+        where the chosen pieces touch.
+    closed : (count,) bool
+        Lanes round a ring: the last row is the first photo again (so that every piece is a run
+        of rows); chosen whole, the ring is flown once round without it.
     """
 
     cands: Candidates
     lane: np.ndarray
+    pieces: np.ndarray
+    closed: np.ndarray
 
     @property
     def count(self) -> int:
@@ -65,21 +78,47 @@ class Lanes:
         return len(self.cands)
 
     @classmethod
-    def empty(cls) -> "Lanes":
-        return cls(Candidates.empty(), np.zeros(0, dtype=np.int64))
+    def empty(cls) -> Lanes:
+        return cls(Candidates.empty(), np.zeros(0, dtype=np.int64), np.zeros((0, 3), dtype=np.int64),
+                   np.zeros(0, dtype=bool))
 
-    def concat(self, other: "Lanes") -> "Lanes":
-        return Lanes(self.cands.concat(other.cands), np.concatenate([self.lane, other.lane + self.count]))
+    @classmethod
+    def runs(cls, cands: Candidates, lane: np.ndarray) -> Lanes:
+        """Lanes of one piece each, not closed."""
+        lane = np.asarray(lane, dtype=np.int64)
+        n = int(lane.max()) + 1 if len(lane) else 0
+        first = np.searchsorted(lane, np.arange(n))
+        return cls(cands, lane, np.column_stack([np.arange(n), first, np.r_[first[1:], len(lane)]]).astype(np.int64),
+                   np.zeros(n, dtype=bool))
 
-    def subset(self, keep: np.ndarray) -> "Lanes":
-        """The photos ``keep`` (bool, (n,)), a lane split where a photo was dropped."""
+    def concat(self, other: Lanes) -> Lanes:
+        shift = np.array([self.count, len(self), len(self)])
+        return Lanes(self.cands.concat(other.cands), np.concatenate([self.lane, other.lane + self.count]),
+                     np.vstack([self.pieces, other.pieces + shift]), np.concatenate([self.closed, other.closed]))
+
+    def subset(self, keep: np.ndarray) -> Lanes:
+        """The photos ``keep`` (bool, (n,)): a lane, and each of its pieces, split where a photo
+        was dropped; a ring that loses a photo is no longer closed."""
         keep = np.asarray(keep, dtype=bool)
         if not keep.any():
             return Lanes.empty()
+        if keep.all():
+            return self
         rows = np.flatnonzero(keep)
         # A new lane starts at a lane's first kept photo or after a dropped one.
         starts = np.r_[True, (np.diff(rows) != 1) | (np.diff(self.lane[rows]) != 0)]
-        return Lanes(self.cands.subset(rows), np.cumsum(starts) - 1)
+        lane = np.cumsum(starts) - 1
+        new_row = np.cumsum(keep) - 1
+        pieces = []
+        for _, first, stop in self.pieces:
+            kept = first + np.flatnonzero(keep[first:stop])
+            for run in _pieces(np.isin(np.arange(first, stop), kept)):
+                r = new_row[first + run]
+                pieces.append((lane[r[0]], r[0], r[-1] + 1))
+        whole = np.bincount(self.lane[rows], minlength=self.count) == np.bincount(self.lane, minlength=self.count)
+        closed = np.zeros(int(lane.max()) + 1, dtype=bool)
+        closed[lane[starts]] = (self.closed & whole)[self.lane[rows[starts]]]
+        return Lanes(self.cands.subset(rows), lane, np.array(pieces, dtype=np.int64).reshape(-1, 3), closed)
 
     def neighbours(self) -> np.ndarray:
         """(k, 2) int: rows of consecutive photos of one lane."""
@@ -112,7 +151,7 @@ def band_heights(ground_z: float, top: float, frame_height: float, band: float, 
 
 def facade_lanes(scene, camera, limits: ViewLimits, distance: float, forward_overlap: float = FORWARD_OVERLAP,
                  side_overlap: float = SIDE_OVERLAP, pitch_deg: float = 0.0, wrap: bool = True,
-                 heights: np.ndarray | None = None) -> Lanes:
+                 heights: np.ndarray | None = None, smooth_share: float = SMOOTH_SHARE) -> Lanes:
     """Lanes along every façade of the target's sections, band above band, square-on to the
     façade and pitched ``pitch_deg`` (negative: down).
 
@@ -129,10 +168,14 @@ def facade_lanes(scene, camera, limits: ViewLimits, distance: float, forward_ove
         The gimbal pitch; a band looks at its height on the wall from ``distance`` away, so a
         pitched lane flies higher and nearer the wall's line than a level one.
     wrap : bool
-        Wrap the lanes round the convex corners (the section offset with round corners, its
-        photos facing the corner on the arc, no further apart than along a wall): one lane
-        from concave corner to concave corner, or round the whole ring. False: one straight
-        lane per façade, past its ends by ``OVERRUN`` of the frame.
+        Wrap the lanes round the building: one closed lane per ring of the section offset with
+        round corners (``smooth_walk``), its photos facing the nearest wall, in pieces cut at
+        the corners (``ring_lane``). False: one straight lane per façade, past its ends by
+        ``OVERRUN`` of the frame.
+    heights : (k,) float, optional
+        The bands' heights; by default ``band_heights``.
+    smooth_share : float
+        Under ``wrap``: the share of each ring's corners turned in smooth steps.
 
     Returns
     -------
@@ -145,37 +188,71 @@ def facade_lanes(scene, camera, limits: ViewLimits, distance: float, forward_ove
         heights = band_heights(scene.ground_z, top, height, band, limits.min_z)
     tilt = np.radians(-pitch_deg)  # down from level
     clearance = scene.clearance_model(limits.security)
-    positions, normals, lane = [], [], []
-    count = 0
+    out = Lanes.empty()
     for z in heights:
         section = _section_union(scene, min(z, top - 1e-3))
         if section is None or section.is_empty:
             continue
         section = section.simplify(0.05)
-        out = distance * np.cos(tilt)
+        reach = distance * np.cos(tilt)
         if wrap:
-            runs = [run for ring in _rings(section.buffer(out, quad_segs=16))
-                    for run in _split_at_turns(*_facing(section, _walk(ring, step)[0]))]
+            rings = [ring_lane(*smooth_walk(ring, section, step, smooth_share))
+                     for ring in _rings(section.buffer(reach, quad_segs=16))]
         else:
-            runs = [_run_photos(run, step, OVERRUN * width, out)
-                    for ring, exterior in _rings(section) for run in _facades(ring, exterior)]
-        for pts, nrm in runs:
-            if not len(pts):
+            rings = [(xy, nrm, np.array([[0, 0, len(xy)]]), False) for ring, exterior in _rings(section)
+                     for xy, nrm in [_run_photos(run, step, OVERRUN * width, reach) for run in _facades(ring, exterior)]]
+        for xy, nrm, pieces, closed in rings:
+            if not len(xy):
                 continue
-            pos = np.column_stack([pts, np.full(len(pts), z + distance * np.sin(tilt))])
+            pos = np.column_stack([xy, np.full(len(xy), z + distance * np.sin(tilt))])
+            look = np.column_stack([-nrm * np.cos(tilt), np.full(len(nrm), -np.sin(tilt))])
+            one = Lanes(Candidates.looking(pos, look, limits, source=LANE_SOURCE), np.zeros(len(pos), dtype=np.int64),
+                        np.asarray(pieces, dtype=np.int64), np.array([closed]))
             # Past a concave corner the run comes closer to the next wall than its distance.
-            ok = clearance.points_clear(pos, NEAR_WALL * distance)
-            for piece in _pieces(ok):
-                positions.append(pos[piece])
-                normals.append(nrm[piece])
-                lane.append(np.full(len(piece), count))
-                count += 1
-    if not positions:
-        return Lanes.empty()
-    look = -np.vstack(normals) * np.cos(tilt)
-    cands = Candidates.looking(np.vstack(positions), np.column_stack([look, np.full(len(look), -np.sin(tilt))]),
-                               limits, source=LANE_SOURCE)
-    return Lanes(cands, np.concatenate(lane))
+            out = out.concat(one.subset(clearance.points_clear(pos, NEAR_WALL * distance)))
+    return out
+
+
+def courtyard_lanes(scene, camera, limits: ViewLimits, offset: float, distance: float,
+                    forward_overlap: float = FORWARD_OVERLAP, side_overlap: float = SIDE_OVERLAP,
+                    smooth_share: float = SMOOTH_SHARE) -> Lanes:
+    """Lanes round the inside of every courtyard (a hole of the target's sections), ``offset``
+    from its walls, looking across it at the far walls: a courtyard too narrow for a lane at
+    the standoff is photographed from across, at about the standoff.
+
+    Parameters
+    ----------
+    offset : float
+        How far from the nearest wall the lanes run, m.
+    distance : float
+        The standoff, m: the bands are spaced for the frame there.
+
+    Returns
+    -------
+    Lanes
+    """
+    step, band = lane_steps(camera, distance, forward_overlap, side_overlap)
+    top = float(scene.bounds("target")[1, 2])
+    heights = band_heights(scene.ground_z, top, camera.footprint(distance)[1], band, limits.min_z)
+    clearance = scene.clearance_model(limits.security)
+    out = Lanes.empty()
+    for z in heights:
+        section = _section_union(scene, min(z, top - 1e-3))
+        if section is None or section.is_empty:
+            continue
+        section = section.simplify(0.05)
+        holes = [shapely.Polygon(h) for g in getattr(section, "geoms", [section]) for h in g.interiors]
+        for hole in holes:
+            for ring in _rings(hole.buffer(-offset)):
+                xy, away, pieces, closed = ring_lane(*smooth_walk(ring, section, step, smooth_share))
+                if not len(xy):
+                    continue
+                pos = np.column_stack([xy, np.full(len(xy), z)])
+                one = Lanes(Candidates.looking(pos, np.column_stack([away, np.zeros(len(away))]), limits,
+                                               source=LANE_SOURCE),
+                            np.zeros(len(pos), dtype=np.int64), pieces, np.array([closed]))
+                out = out.concat(one.subset(clearance.points_clear(pos, 0.9 * offset)))
+    return out
 
 
 def roof_lanes(scene, samples, camera, limits: ViewLimits, distance: float, forward_overlap: float = FORWARD_OVERLAP,
@@ -215,7 +292,6 @@ def roof_lanes(scene, samples, camera, limits: ViewLimits, distance: float, forw
     uu, vv = np.meshgrid(cols, rows)
     uu[1::2] = uu[1::2, ::-1]  # a lawnmower: every other lane flown back
     xy = centre + uu.reshape(-1, 1) * axis + vv.reshape(-1, 1) * side
-    lane = np.repeat(np.arange(len(rows)), len(cols))
     reach = 0.5 * min(width, height)
     over = cKDTree(pts[:, :2]).query_ball_point(xy, reach, return_length=True) > 0
     z = _highest_within(samples.points, xy, reach) + distance
@@ -224,7 +300,10 @@ def roof_lanes(scene, samples, camera, limits: ViewLimits, distance: float, forw
     cands = Candidates(np.column_stack([xy, z]), np.full(len(xy), heading), np.full(len(xy), -90.0),
                        np.full(len(xy), LANE_SOURCE, dtype=np.int8))
     cands.pitch_deg = np.clip(cands.pitch_deg, *limits.pitch_range_deg)
-    return Lanes(cands, lane).subset(keep)
+    # One lane, flown as a lawnmower; each strip a piece of it.
+    first = np.arange(len(rows)) * len(cols)
+    pieces = np.column_stack([np.zeros(len(rows), dtype=np.int64), first, first + len(cols)])
+    return Lanes(cands, np.zeros(len(xy), dtype=np.int64), pieces, np.zeros(1, dtype=bool)).subset(keep)
 
 
 def safe_lanes(scene, lanes: Lanes, limits: ViewLimits, margin: float) -> Lanes:
@@ -306,31 +385,6 @@ def _run_photos(run: tuple[np.ndarray, bool], step: float, overrun: float, dista
     offset = s - np.r_[0.0, np.cumsum(length)[:-1]][edge]
     base = starts[edge] + tangent[edge] * offset[:, None]
     return base + normal[edge] * distance, normal[edge]
-
-
-def _facing(section, pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``pts`` (k, 2) and the unit vectors (k, 2) from the nearest point of ``section`` to each:
-    square-on to a wall beside it, towards the corner round which it turns."""
-    if not len(pts):
-        return pts, np.zeros((0, 2))
-    near = shapely.get_coordinates(shapely.shortest_line(shapely.points(pts), section))[1::2]
-    away = pts - near
-    return pts, away / np.maximum(np.linalg.norm(away, axis=1, keepdims=True), 1e-12)
-
-
-def _split_at_turns(pts: np.ndarray, normals: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
-    """A closed ring's photos (k, 2) and outward normals (k, 2) cut where the normal turns by
-    more than ``CUT_TURN_DEG`` from one photo to the next (the offset's concave corners):
-    runs in walking order, or the whole ring when it never turns that much."""
-    if len(pts) == 0:
-        return []
-    turn = np.einsum("ij,ij->i", normals, np.roll(normals, -1, axis=0)) < np.cos(np.radians(CUT_TURN_DEG))
-    cuts = np.flatnonzero(turn)
-    if not len(cuts):
-        return [(pts, normals)]
-    order = np.roll(np.arange(len(pts)), -(cuts[0] + 1))  # start just after a cut
-    pieces = np.split(order, np.flatnonzero(np.isin(order, cuts[1:])) + 1)
-    return [(pts[p], normals[p]) for p in pieces if len(p)]
 
 
 def _pieces(ok: np.ndarray) -> list[np.ndarray]:
