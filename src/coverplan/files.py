@@ -1,4 +1,4 @@
-"""File helpers every layer uses: JSON in, gzip-aware opening, atomic writes."""
+"""File helpers every layer uses: JSON in, gzip-aware opening, atomic writes, paths relative to a file."""
 
 from __future__ import annotations
 
@@ -54,3 +54,16 @@ def write_atomic_bytes(path, data: bytes) -> Path:
             os.unlink(tmp)
         raise
     return path
+
+
+def relative_to(record: dict, folder) -> dict:
+    """A scene record (io/scene_record.py) with each path relative to ``folder`` where it can be (same drive)."""
+    def rel(entry):
+        if entry is None:
+            return None
+        try:
+            return dict(entry, path=os.path.relpath(entry["path"], folder))
+        except ValueError:  # another drive (Windows): keep it absolute
+            return dict(entry)
+    return {"files": {k: [rel(e) for e in v] for k, v in record["files"].items()},
+            "terrain": rel(record.get("terrain")), "options": dict(record.get("options", {}))}

@@ -28,12 +28,15 @@ class Parser(argparse.ArgumentParser):
         sys.exit(2)
 
 
-def add_scene_args(p, targets_positional: bool):
+def add_scene_args(p, targets_positional: bool, recorded: bool = False):
+    """The scene's files and options; ``recorded``: a route's own record of its scene is the default."""
     if targets_positional:
         p.add_argument("targets", nargs="+", metavar="TARGET", help="target mesh file(s)")
     else:
-        p.add_argument("--target", "--targets", dest="targets", nargs="+", required=True, metavar="TARGET",
-                       help="target mesh file(s)")
+        p.add_argument("--target", "--targets", dest="targets", nargs="+", required=not recorded, default=None,
+                       metavar="TARGET",
+                       help="target mesh file(s)" + (" (default: the scene the route records; the other scene "
+                                                     "options then come from the route too)" if recorded else ""))
     p.add_argument("--obstacles", nargs="+", default=[], metavar="MESH", help="obstacle mesh file(s)")
     p.add_argument("--units", default=None, choices=["m", "cm", "mm", "ft", "in"],
                    help="units of the mesh files (default: the CRS's unit, else m)")
@@ -77,6 +80,29 @@ def scene_from_args(args):
                       points_resolution=args.points_resolution, point_classes=parse_classes(args.point_classes),
                       height_attribute=args.height_attribute, height=args.height, roof_attribute=args.roof_attribute,
                       terrain=args.terrain)
+
+
+SCENE_OPTIONS = ("obstacles", "units", "ground", "terrain", "target_names", "up_axis", "building", "lod",
+                 "context_radius", "crs", "geo_origin", "height_attribute", "height", "roof_attribute",
+                 "obstacle_points", "point_classes")
+
+
+def scene_for_route(args, route=None):
+    """The scene given with --target, else the one the route file ``args.route`` records
+    (``route``: that file, loaded; None: a mission from another app, which records none)."""
+    if args.targets:
+        return scene_from_args(args)
+    given = [name for name in SCENE_OPTIONS if getattr(args, name, None) not in (None, [])]
+    if given:
+        raise ParameterError(f"--{given[0].replace('_', '-')} needs --target: give the whole scene, or none of it "
+                             "to use the one the route records")
+    record = None if route is None else route.params.get("scene")
+    if not record:
+        what = "records no scene (planned from a mesh in memory, or by an older coverplan)" if route is not None \
+            else "is a mission from another app"
+        raise ParameterError(f"{args.route} {what}: give the scene with --target")
+    from coverplan.io.scene_record import scene_from_record
+    return scene_from_record(record, args.route)
 
 
 def camera_from_args(args) -> Camera:

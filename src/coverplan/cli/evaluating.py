@@ -12,7 +12,7 @@ from coverplan.cli.args import (
     add_zone_args,
     mission_route,
     parse_ceiling,
-    scene_from_args,
+    scene_for_route,
 )
 from coverplan.equipment.camera import check_positive
 from coverplan.errors import ParameterError
@@ -25,13 +25,14 @@ from coverplan.progress import Progress
 def cmd_evaluate(args) -> int:
     if args.spacing is not None:
         check_positive("--spacing", args.spacing)
-    scene = scene_from_args(args)
     if args.route.lower().endswith(".json"):
         if args.gsd is not None or args.security is not None:
             raise ParameterError("a route file carries its own camera, GSD and security distance; "
                                  "--camera/--gsd/--security are for missions from other apps")
         route = Route.load(args.route)
+        scene = scene_for_route(args, route)
     else:
+        scene = scene_for_route(args)
         route = mission_route(args, scene)
     if args.max_altitude is not ROUTE_CEILING:  # judged against a ceiling given here instead of the route's own
         route.params["max_altitude_m"] = args.max_altitude
@@ -62,7 +63,7 @@ def register(sub) -> None:
     p.add_argument("route", metavar="ROUTE",
                    help="a coverplan route (.json) or a mission: QGroundControl .plan, QGC WPL .waypoints, "
                         "Litchi .csv, DJI WPML .kmz (docs/evaluate.md)")
-    add_scene_args(p, targets_positional=False)
+    add_scene_args(p, targets_positional=False, recorded=True)
     add_camera_args(p)
     p.add_argument("--gsd", type=float, default=None, metavar="M_PER_PX",
                    help="for missions: the GSD to judge the photos by")

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from coverplan.cli.args import add_scene_args, scene_from_args
+from coverplan.cli.args import add_scene_args, scene_for_route
 from coverplan.errors import ParameterError
 from coverplan.evaluation import evaluate
 from coverplan.flight.route import Route
@@ -15,7 +15,7 @@ def cmd_report(args) -> int:
     if not args.report and not args.plot:
         raise ParameterError("give -o REPORT.html and/or --plot PREFIX")
     route = Route.load(args.route)
-    scene = scene_from_args(args)
+    scene = scene_for_route(args, route)
     progress = Progress(bars=not args.quiet, verbose=args.verbose)
     with progress.stage("evaluate"):
         ev = evaluate(route, scene, spacing=args.spacing)
@@ -37,7 +37,7 @@ def register(sub) -> None:
                            ("plot", "write PNG figures (and/or the HTML report) of a route")):
         p = sub.add_parser(name, help=helptext)
         p.add_argument("route", metavar="ROUTE.json")
-        add_scene_args(p, targets_positional=False)
+        add_scene_args(p, targets_positional=False, recorded=True)
         p.add_argument("--spacing", type=float, default=None, metavar="M")
         p.add_argument("--simulation", default=None, metavar="SIMULATION.json",
                        help="show what 'coverplan simulate' recovered (its DIR/simulation.json)")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import json
 import sys
 
-from coverplan.cli.args import add_scene_args, add_simulate_args, scene_from_args
+from coverplan.cli.args import add_scene_args, add_simulate_args, scene_for_route
 from coverplan.equipment.camera import check_positive
 from coverplan.errors import ParameterError
 from coverplan.flight.route import Route
@@ -15,7 +15,7 @@ from coverplan.sfm.simulate import simulate
 
 def cmd_simulate(args) -> int:
     route = Route.load(args.route)
-    scene = scene_from_args(args)
+    scene = scene_for_route(args, route)
     return simulate_route(route, scene, args.output, args)
 
 
@@ -53,7 +53,7 @@ def register(sub) -> None:
     """Add the subcommand to ``sub`` (argparse subparsers)."""
     p = sub.add_parser("simulate", help="render a route's photos, reconstruct them with COLMAP, judge the result")
     p.add_argument("route", metavar="ROUTE.json")
-    add_scene_args(p, targets_positional=False)
+    add_scene_args(p, targets_positional=False, recorded=True)
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="folder for photos, COLMAP files and simulation.json")
     add_simulate_args(p)
     p.add_argument("--json", action="store_true", help="print the result as JSON")

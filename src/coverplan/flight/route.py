@@ -11,7 +11,7 @@ import numpy as np
 
 from coverplan.equipment.camera import Camera
 from coverplan.errors import ParameterError, RouteFormatError
-from coverplan.files import read_json, write_atomic
+from coverplan.files import read_json, relative_to, write_atomic
 from coverplan.flight.passing import corner_offsets, turn_angles
 from coverplan.geometry.orientation import (
     angle_between_deg,
@@ -229,7 +229,10 @@ class Route:
         path = Path(path)
         if path.exists() and not force:
             raise ParameterError(f"{path} exists; pass --force to overwrite it")
-        return write_atomic(path, json.dumps(self.to_dict(), indent=1, allow_nan=False))
+        data = self.to_dict()
+        if data["params"].get("scene"):  # a project folder moves as a whole: its files relative to the route
+            data["params"]["scene"] = relative_to(data["params"]["scene"], path.resolve().parent)
+        return write_atomic(path, json.dumps(data, indent=1, allow_nan=False))
 
     @classmethod
     def load(cls, path) -> "Route":

@@ -11,6 +11,7 @@ from coverplan.errors import ParameterError
 from coverplan.geometry.geo import check_crs
 from coverplan.io.formats import read_file
 from coverplan.io.registry import MeshSource
+from coverplan.io.scene_record import scene_record
 from coverplan.world.merge import unite_overlapping_targets
 from coverplan.world.pointcloud import point_obstacle
 from coverplan.world.scene import UNITS, MeshPart, Scene, build_scene
@@ -54,6 +55,7 @@ def load_scene(targets: str | Path | MeshSource | Sequence[str | Path | MeshSour
     height system; without it, a city model's relief, roads and land use make the terrain,
     and without those the ground is flat at ``ground`` (default: the target's lowest point).
     """
+    obstacles, obstacle_points = list(obstacles), list(obstacle_points)
     if crs is not None and geodetic_origin is not None:
         raise ParameterError("give either a CRS or a geodetic origin, not both")
     user_crs = None if crs is None else check_crs(crs)
@@ -143,6 +145,12 @@ def load_scene(targets: str | Path | MeshSource | Sequence[str | Path | MeshSour
         lo, hi = scene.bounds("target")
         scene.ground_z = scene.terrain.lowest_in(lo[:2], hi[:2])
     scene.notes += terrain_notes + unit_warnings(scene, units or "m")
+    scene.source = scene_record(
+        {"targets": targets, "obstacles": list(obstacles), "obstacle_points": list(obstacle_points),
+         "terrain": terrain},
+        dict(options, units=units, ground=ground, target_names=target_names, crs=user_crs,
+             geodetic_origin=geodetic_origin, points_resolution=points_resolution if obstacle_points else None,
+             point_classes=point_classes))
     return unite_overlapping_targets(scene)
 
 

@@ -28,7 +28,16 @@ def _union(meshes: list[trimesh.Trimesh]) -> trimesh.Trimesh | None:
 
 def merge_into_target(scene: Scene, within: float) -> Scene:
     """Scene in which obstacles closer than ``within`` to the target, and target parts that
-    overlap, are one target mesh (or side-by-side target parts where no boolean is possible)."""
+    overlap, are one target mesh (or side-by-side target parts where no boolean is possible).
+    Its ``source`` records the merge, so that a route's scene is loaded again the same way."""
+    merged = _merged(scene, within)
+    if scene.source is not None:
+        merged = merged if merged is not scene else _rebuilt(scene, list(scene.parts), list(scene.notes))
+        merged.source = dict(scene.source, options=dict(scene.source["options"], merge_obstacles_within=float(within)))
+    return merged
+
+
+def _merged(scene: Scene, within: float) -> Scene:
     targets = [p for p in scene.parts if p.role == "target"]
     obstacles = [p for p in scene.parts if p.role == "obstacle"]
     joining = [o for o in obstacles if min(mesh_distance(o.mesh, t.mesh) for t in targets) <= within]
@@ -73,7 +82,7 @@ def _rebuilt(scene: Scene, parts, notes) -> Scene:
     """The same scene (frame, ground, georeference) with other parts."""
     return Scene(parts, ground_z=scene.ground_z, crs=scene.crs, origin=scene.origin.copy(), notes=notes,
                  vertical_crs=scene.vertical_crs, geodetic_origin=scene.geodetic_origin,
-                 crs_unit_m=scene.crs_unit_m, terrain=scene.terrain)
+                 crs_unit_m=scene.crs_unit_m, terrain=scene.terrain, source=scene.source)
 
 
 __all__ = ["merge_into_target", "unite_overlapping_targets", "mesh_distance"]

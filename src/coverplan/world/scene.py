@@ -44,6 +44,7 @@ class Scene:
     geodetic_origin: list | None = None  # [lat, lon, h]: local x, y, z are east, north, up there
     crs_unit_m: float = 1.0  # metres per unit of the CRS (source coordinates were scaled by it)
     terrain: Terrain | None = None  # the ground's heights; None: flat at ground_z
+    source: dict | None = None  # the files and options it was loaded from (io/scene_record.py); None: not from files
     _clearance: dict = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self):
