@@ -31,10 +31,6 @@ def cmd_plan(args) -> int:
 
 
     out = Path(args.output)
-    if out.exists() and not args.force:
-        raise ParameterError(f"{out} exists; pass --force to overwrite it")
-    if not out.parent.exists():
-        raise ParameterError(f"{out.parent} does not exist (output folder for {out.name})")
     camera = camera_from_args(args)
     formats = parse_formats(args.export)
     progress = Progress(bars=not args.quiet, verbose=args.verbose)
@@ -44,6 +40,11 @@ def cmd_plan(args) -> int:
             if args.merge_obstacles_within < 0:
                 raise ParameterError(f"--merge-obstacles-within must be >= 0, got {args.merge_obstacles_within}")
             scene = merge_into_target(scene, args.merge_obstacles_within)
+    # the inputs are told first, then where the route goes
+    if out.exists() and not args.force:
+        raise ParameterError(f"{out} exists; pass --force to overwrite it")
+    if not out.parent.exists():
+        raise ParameterError(f"{out.parent} does not exist (output folder for {out.name})")
     for note in scene.notes:  # say it now, before the long work, not only in the summary
         if note.startswith("WARNING"):
             print(f"coverplan: {note}", file=sys.stderr)
@@ -57,6 +58,7 @@ def cmd_plan(args) -> int:
     # --start is in the input models' coordinates, like the meshes: move it with them.
     start = None if args.start is None else scene.to_local(args.start)
     options = plan_options(args, formats)
+    options["force"] = args.force
     if args.existing:
         with progress.stage("existing photos"):
             options["existing"] = read_existing(args.existing, scene, camera, args.gsd, args.security, progress)
@@ -94,7 +96,9 @@ def register(sub) -> None:
     p.add_argument("-o", "--output", required=True, metavar="ROUTE.json")
     p.add_argument("--report", default=None, metavar="REPORT.html", help="also write the HTML flight report")
     p.add_argument("--plot", default=None, metavar="PREFIX", help="also write PNG figures PREFIX_*.png")
-    p.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    p.add_argument("--force", action="store_true",
+                   help="overwrite an existing output file, and plan a GSD, security distance, altitude or flight "
+                        "time that looks like a unit slip (refused without it)")
     p.add_argument("--strict", action="store_true",
                    help="refuse a security distance below the drone's position error bound plus 1 m; "
                         "with --simulate, exit 1 unless the photos reconstruct")

@@ -18,6 +18,7 @@ _Y_UP_TO_Z_UP = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0,
 @register_reader("obj", "ply", "stl", "off", "glb", "gltf")
 def read_mesh(path, up_axis: str | None = None, **_ignored) -> MeshSource:
     ext = path.suffix.lower().lstrip(".")
+    _check_signature(path, ext)
     try:
         with warnings.catch_warnings(), np.errstate(all="ignore"):
             warnings.simplefilter("ignore")  # numpy casts of garbage values while parsing
@@ -46,6 +47,22 @@ def read_mesh(path, up_axis: str | None = None, **_ignored) -> MeshSource:
         raise InputFileError(path, "holds no triangles (no faces in any object)")
     notes = [f"{path.name}: read as {up}-up"] if up == "y" else []
     return MeshSource(meshes=meshes, notes=notes)
+
+
+def _check_signature(path, ext: str) -> None:
+    """Refuse a file that is not of its extension's format at all (random bytes, another
+    format renamed), which trimesh would read as an empty or garbage mesh."""
+    with open(path, "rb") as fh:
+        head = fh.read(4096)
+    if ext == "stl":
+        size = path.stat().st_size
+        binary = size >= 84 and size == 84 + 50 * int(np.frombuffer(head[80:84], "<u4")[0])
+        ascii_ = head.lstrip().lower().startswith(b"solid") and b"\0" not in head
+        if not (binary or ascii_):
+            raise InputFileError(path, "is not a valid STL: neither binary (84 bytes + 50 per triangle) nor ASCII "
+                                       "(starting 'solid')")
+    elif ext in ("obj", "off") and b"\0" in head:
+        raise InputFileError(path, f"is not a valid {ext.upper()}: it is binary, not text")
 
 
 def _short(exc: Exception) -> str:

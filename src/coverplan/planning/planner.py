@@ -19,6 +19,7 @@ from coverplan.flight.route import Route
 from coverplan.planning.assembly import make_route
 from coverplan.planning.flying import fly
 from coverplan.planning.gaps import close_gaps
+from coverplan.planning.guards import check_endurance
 from coverplan.planning.problem import build_problem
 from coverplan.planning.selecting import select_shots
 from coverplan.planning.settings import PlanSettings
@@ -66,5 +67,6 @@ def plan(scene, camera: Camera, settings: PlanSettings | None = None, *, start=N
         selection = select_shots(problem, setup, progress)
         gaps = close_gaps(problem, selection, setup, progress)
         flight = fly(scene, problem, gaps, setup, progress, pool)
+    check_endurance(flight.single_flight_s / 60.0, settings, setup.max_flight_min)
     return make_route(scene, setup, problem, selection, gaps, flight, progress.timings,
                       time.perf_counter() - t0)

@@ -127,6 +127,9 @@ class PlanSettings:
     lane_steps : float
         Under "lanes": how much path the tour gives up to fly a lane's photos one after the
         other, end to end, in typical steps.
+    force : bool
+        Plan even when the GSD, security distance, lowest altitude or flight time look like a
+        unit slip (planning/guards.py); False (the default) refuses them with one line.
     """
 
     gsd: float
@@ -161,6 +164,7 @@ class PlanSettings:
     forward_overlap: float = 0.7
     side_overlap: float = 0.4
     lane_steps: float = DEFAULT_LANE_STEPS
+    force: bool = False
 
     def __post_init__(self):
         def put(name, value):
@@ -217,8 +221,10 @@ class PlanSettings:
         if self.max_altitude is not None:
             put("max_altitude", check_positive("altitude ceiling (--max-altitude)", self.max_altitude))
             if self.max_altitude <= self.floor:
+                why = "" if self.min_altitude is not None else (
+                    f" (the security distance, --security {self.security:g} m: a unit slip?)")
                 raise ParameterError(f"the altitude ceiling (--max-altitude) {self.max_altitude:g} m is not above the "
-                                     f"minimum altitude {self.floor:g} m")
+                                     f"minimum altitude {self.floor:g} m{why}")
         if not isinstance(self.zones, Zones):
             put("zones", Zones(tuple(self.zones)))
         if not (np.isfinite(self.reversal_steps) and self.reversal_steps >= 0):

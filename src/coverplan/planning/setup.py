@@ -16,6 +16,7 @@ from coverplan.flight.pathing import (
     lattice_spacing,
 )
 from coverplan.flight.start import check_start, default_start
+from coverplan.planning.guards import check_unit_slips
 from coverplan.planning.settings import (
     PlanSettings,
     check_size,
@@ -70,6 +71,7 @@ def resolve(scene, camera: Camera, settings: PlanSettings, drone: DroneProfile |
             flight_model: FlightModel | None = None, start=None) -> Setup:
     """Check the settings against the camera and scene; the pose margin, limits and start point."""
     d_opt = optimal_distance(camera, settings)
+    check_unit_slips(scene, settings, d_opt)
     pitch_range = gimbal_range(settings.gimbal_pitch_range_deg, drone)
     model = flight_model or (drone.flight_model() if drone is not None else FlightModel())
     max_flight_min = settings.max_flight_min
