@@ -10,7 +10,7 @@ import pytest
 from coverplan import load_scene
 from coverplan.equipment.drones import DRONES
 from coverplan.errors import ParameterError
-from coverplan.planning.guards import check_endurance
+from coverplan.planning.guards import BATTERIES, check_endurance
 from coverplan.planning.settings import PlanSettings
 from tests.helpers import MESHES
 from tests.test_bad_input import assert_one_line_error, run
@@ -45,9 +45,9 @@ def test_force_plans_what_looks_like_a_slip(tmp_path, capsys):
 
 
 def test_a_single_flight_beyond_every_battery_is_refused_unless_split():
-    longest = max(d.usable_flight_min for d in DRONES.values())
+    longest = BATTERIES * max(d.usable_flight_min for d in DRONES.values())
     settings = PlanSettings(gsd=0.004, security=3)
-    with pytest.raises(ParameterError, match="longer than any drone flies"):
+    with pytest.raises(ParameterError, match="as long as any drone flies"):
         check_endurance(longest + 1, settings, None)
     check_endurance(longest + 1, settings, 20.0)  # --max-flight-min splits it
     check_endurance(longest + 1, PlanSettings(gsd=0.004, security=3, force=True), None)

@@ -101,7 +101,7 @@ def scene_for_route(args, route=None):
         what = "records no scene (planned from a mesh in memory, or by an older coverplan)" if route is not None \
             else "is a mission from another app"
         raise ParameterError(f"{args.route} {what}: give the scene with --target")
-    from coverplan.io.scene_record import scene_from_record
+    from coverplan.io.load import scene_from_record
     return scene_from_record(record, args.route)
 
 

@@ -7,11 +7,11 @@ from typing import Iterable, Sequence
 
 import numpy as np
 
-from coverplan.errors import ParameterError
+from coverplan.errors import InputFileError, ParameterError
 from coverplan.geometry.geo import check_crs
 from coverplan.io.formats import read_file
 from coverplan.io.registry import MeshSource
-from coverplan.io.scene_record import scene_record
+from coverplan.io.scene_record import file_hash, scene_record
 from coverplan.world.merge import unite_overlapping_targets
 from coverplan.world.pointcloud import point_obstacle
 from coverplan.world.scene import UNITS, MeshPart, Scene, build_scene
@@ -155,6 +155,46 @@ def load_scene(targets: str | Path | MeshSource | Sequence[str | Path | MeshSour
 
 
 CITY_TERRAIN_STEP_M = 1.0  # grid of a city model's ground surfaces
+
+
+
+def scene_from_record(record: dict, route_path, progress=None):
+    """Load the scene a route records, its paths taken relative to the route's folder.
+
+    Raises
+    ------
+    InputFileError
+        When a recorded file is not where the route says (named with the option that replaces
+        it) or no longer the file the route was planned on.
+    """
+    route_path = Path(route_path)
+    folder = route_path.parent
+
+    def found(entry, flag):
+        path = Path(entry["path"])
+        path = path if path.is_absolute() else folder / path
+        if not path.exists():
+            raise InputFileError(route_path, f"its scene file {entry['path']} is not there (moved?); give the scene "
+                                             f"with {flag}")
+        if entry.get("sha256") and file_hash(path) != entry["sha256"]:
+            raise InputFileError(route_path, f"its scene file {path} has changed since the route was planned; "
+                                             f"give the scene with {flag} to judge the route against it as it is")
+        return str(path)
+
+    files = record.get("files", {})
+    targets = [found(e, "--target") for e in files.get("targets", [])]
+    if not targets:
+        raise InputFileError(route_path, "records no scene; give it with --target")
+    options = dict(record.get("options", {}))
+    merge = options.pop("merge_obstacles_within", None)
+    terrain = record.get("terrain")
+    scene = load_scene(targets, [found(e, "--obstacles") for e in files.get("obstacles", [])],
+                       obstacle_points=[found(e, "--obstacle-points") for e in files.get("obstacle_points", [])],
+                       terrain=None if terrain is None else found(terrain, "--terrain"), **options)
+    if merge is not None:
+        from coverplan.world.merge import merge_into_target
+        scene = merge_into_target(scene, merge)
+    return scene
 
 
 def _stand_on_terrain(scene: Scene, names: set) -> list[str]:

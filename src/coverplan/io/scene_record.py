@@ -1,5 +1,6 @@
 """Where a route's scene came from: the files and options ``load_scene`` read, so that
-``report``, ``evaluate``, ``simulate`` and ``export`` can load the scene from the route alone.
+``report``, ``evaluate``, ``simulate`` and ``export`` can load the scene from the route alone
+(``io.load.scene_from_record``).
 
 The record lists every file (targets, obstacles, point clouds, the DTM) with its SHA-256 and
 every option that shaped the scene (units, building id, georeference, ...). In a route file the
@@ -12,8 +13,6 @@ from __future__ import annotations
 import hashlib
 import os
 from pathlib import Path
-
-from coverplan.errors import InputFileError
 
 FILE_LISTS = ("targets", "obstacles", "obstacle_points")
 OPTIONS = ("units", "ground", "target_names", "up_axis", "building", "lod", "context_radius", "crs", "geodetic_origin",
@@ -46,47 +45,6 @@ def scene_record(files: dict, options: dict) -> dict | None:
     terrain = files.get("terrain")
     return {"files": lists, "terrain": None if terrain is None else _entry(terrain),
             "options": {k: _plain(options.get(k)) for k in OPTIONS if options.get(k) is not None}}
-
-
-def scene_from_record(record: dict, route_path, progress=None):
-    """Load the scene a route records, its paths taken relative to the route's folder.
-
-    Raises
-    ------
-    InputFileError
-        When a recorded file is not where the route says (named with the option that replaces
-        it) or no longer the file the route was planned on.
-    """
-    from coverplan.io.load import load_scene
-
-    route_path = Path(route_path)
-    folder = route_path.parent
-
-    def found(entry, flag):
-        path = Path(entry["path"])
-        path = path if path.is_absolute() else folder / path
-        if not path.exists():
-            raise InputFileError(route_path, f"its scene file {entry['path']} is not there (moved?); give the scene "
-                                             f"with {flag}")
-        if entry.get("sha256") and file_hash(path) != entry["sha256"]:
-            raise InputFileError(route_path, f"its scene file {path} has changed since the route was planned; "
-                                             f"give the scene with {flag} to judge the route against it as it is")
-        return str(path)
-
-    files = record.get("files", {})
-    targets = [found(e, "--target") for e in files.get("targets", [])]
-    if not targets:
-        raise InputFileError(route_path, "records no scene; give it with --target")
-    options = dict(record.get("options", {}))
-    merge = options.pop("merge_obstacles_within", None)
-    terrain = record.get("terrain")
-    scene = load_scene(targets, [found(e, "--obstacles") for e in files.get("obstacles", [])],
-                       obstacle_points=[found(e, "--obstacle-points") for e in files.get("obstacle_points", [])],
-                       terrain=None if terrain is None else found(terrain, "--terrain"), **options)
-    if merge is not None:
-        from coverplan.world.merge import merge_into_target
-        scene = merge_into_target(scene, merge)
-    return scene
 
 
 def _entry(path) -> dict | None:

@@ -15,6 +15,7 @@ MAX_STANDOFF_M = 150.0  # farther than this, and farther than STANDOFF_SIZES tar
 STANDOFF_SIZES = 5.0
 MAX_SECURITY_M = 30.0  # above this, and above the target's size, the distance is not a clearance
 MAX_FLOOR_M = 300.0  # a lowest flight height above every drone's legal ceiling
+BATTERIES = 3.0  # a single flight as long as this many of the longest battery: a slip, not a big building
 
 FORCE = "pass --force if it is meant"
 
@@ -53,14 +54,16 @@ def check_unit_slips(scene, settings, d_opt: float) -> None:
 
 
 def check_endurance(minutes: float, settings, max_flight_min: float | None) -> None:
-    """Refuse a single flight longer than any drone profile flies on a battery when nothing
-    splits it (no drone, no ``max_flight_min``): the GSD or security distance is likely a slip."""
+    """Refuse a single flight longer than ``BATTERIES`` of the longest any drone profile flies on
+    one when nothing splits it (no drone, no ``max_flight_min``): the GSD or security distance is
+    likely a slip."""
     if settings.force or max_flight_min is not None:
         return
     longest = max(DRONES.values(), key=lambda d: d.usable_flight_min)
-    if minutes > longest.usable_flight_min:
-        raise ParameterError(f"the flight takes {minutes:.0f} min in one go, longer than any drone flies on a battery "
-                             f"(the {longest.label}: {longest.usable_flight_min:g} min): a unit slip in --gsd or "
+    if minutes > BATTERIES * longest.usable_flight_min:
+        raise ParameterError(f"the flight takes {minutes:.0f} min in one go, over {BATTERIES:g} times as long as any "
+                             f"drone flies on a battery (the {longest.label}: {longest.usable_flight_min:g} min): "
+                             f"a unit slip in --gsd or "
                              f"--security? Give --drone or --max-flight-min to split it into battery flights, or "
                              f"{FORCE}")
 
