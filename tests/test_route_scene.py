@@ -96,3 +96,17 @@ def test_a_mission_from_another_app_needs_the_scene(tmp_path, capsys):
     capsys.readouterr()
     code, _, err = run(capsys, "evaluate", folder / "house.waypoints", *PLAN)
     assert_one_line_error(code, err, "mission from another app", "--target")
+
+
+def test_export_writes_every_format_that_fits_and_names_the_others(tmp_path, capsys, monkeypatch):
+    import coverplan.io.qgc as qgc
+
+    folder = _project(tmp_path, capsys, *GEO)
+    monkeypatch.setattr(qgc, "PX4_MISSION_ITEMS", 10)  # the house's flight no longer fits PX4
+    code, out, err = run(capsys, "export", folder / "house.json", "--format", "qgc,litchi,kml")
+    assert code == 0, err
+    assert "not written as qgc" in err and "PX4 keeps at most 10" in err
+    assert (folder / "house.litchi.csv").exists() and (folder / "house.kml").exists()
+    assert not (folder / "house.plan").exists()
+    code, _, err = run(capsys, "export", folder / "house.json", "--format", "qgc", "-o", tmp_path / "only")
+    assert code == 2 and "no format could be written" in err and "Traceback" not in err

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 from coverplan.cli.args import add_export_args, export_options
 from coverplan.errors import ParameterError
 from coverplan.flight.route import Route
@@ -25,7 +27,12 @@ def cmd_export(args) -> int:
         else:
             route.frame["geodetic_origin"] = _check_geodetic_origin(args.geo_origin)
     stem = args.output or (args.route[:-5] if args.route.lower().endswith(".json") else args.route)
-    written = export_route(route, stem, formats, **export_options(args))
+    refused: list = []
+    written = export_route(route, stem, formats, refused=refused, **export_options(args))
+    for name, why in refused:
+        print(f"coverplan: not written as {name}: {why}", file=sys.stderr)
+    if not written:
+        raise ParameterError("no format could be written: " + "; ".join(f"{n}: {w}" for n, w in refused))
     print("written: " + ", ".join(str(p) for p in written))
     return 0
 

@@ -127,20 +127,30 @@ def parse_formats(text: str | None) -> list[str]:
     return names
 
 
-def export_route(route, stem, formats, **options) -> list[Path]:
+def export_route(route, stem, formats, refused: list | None = None, **options) -> list[Path]:
     """Write ``route`` in each format as STEM + the format's suffix; a route of several battery
-    flights as one file per flight, STEM.f1 + suffix, STEM.f2 + suffix, ... Nothing is written
-    when a flight does not fit a format's app or autopilot (its writer's check: more waypoints
-    than DJI WPML numbers, more mission items than PX4 keeps)."""
+    flights as one file per flight, STEM.f1 + suffix, STEM.f2 + suffix, ...
+
+    A format a flight does not fit (its writer's check: more waypoints than DJI WPML numbers,
+    more mission items than PX4 keeps) is written for no flight. With ``refused`` (a list), the
+    other formats are written all the same and ``(format, reason)`` is appended to it for each
+    one left out; without it, any such format raises ParameterError before a file is written.
+    """
     flights = [route] if route.n_flights <= 1 else [route.flight_route(k) for k in range(1, route.n_flights + 1)]
+    fitting = []
     for name in formats:
         check = WRITER_CHECKS.get(name)
-        for k, flight in enumerate(flights, start=1):
-            why = None if check is None else check(flight, **options)
-            if why:
-                raise ParameterError(f"{f'flight {k} has' if len(flights) > 1 else 'the flight has'} {why}")
+        why = next((f"{f'flight {k} has' if len(flights) > 1 else 'the flight has'} {w}"
+                    for k, w in ((k, None if check is None else check(f, **options))
+                                 for k, f in enumerate(flights, start=1)) if w), None)
+        if why is None:
+            fitting.append(name)
+        elif refused is None:
+            raise ParameterError(why)
+        else:
+            refused.append((name, why))
     written = []
-    for name in formats:
+    for name in fitting:
         func, suffix = writer(name)
         for k, flight in enumerate(flights, start=1):
             written += func(flight, f"{stem}{'' if len(flights) == 1 else f'.f{k}'}{suffix}", **options)

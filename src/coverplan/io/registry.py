@@ -59,7 +59,7 @@ def register_reader(*extensions: str):
 def register_writer(name: str, suffix: str, check: WriterCheck | None = None):
     """Enter a writer of format ``name`` (files end in ``suffix``). ``check(flight, **options)``
     says why one flight does not fit the app or autopilot the format is for (None: it fits);
-    ``export_route`` asks it of every flight before it writes any file."""
+    ``export_route`` asks it of every flight before it writes the format."""
     def wrap(func: Writer) -> Writer:
         WRITERS[name] = (func, suffix)
         if check is not None:
