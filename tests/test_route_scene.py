@@ -110,3 +110,15 @@ def test_export_writes_every_format_that_fits_and_names_the_others(tmp_path, cap
     assert not (folder / "house.plan").exists()
     code, _, err = run(capsys, "export", folder / "house.json", "--format", "qgc", "-o", tmp_path / "only")
     assert code == 2 and "no format could be written" in err and "Traceback" not in err
+
+
+def test_the_own_csv_export_reads_back_in_evaluate(tmp_path, capsys):
+    folder = _project(tmp_path, capsys, *GEO)
+    assert main(["export", str(folder / "house.json"), "--format", "csv"]) == 0
+    capsys.readouterr()
+    route = _metrics(capsys, folder / "house.json")
+    mission = _metrics(capsys, folder / "house.csv", "--target", folder / "gabled_house.obj", *GEO, *PLAN)
+    assert mission["shots"] == route["shots"]
+    # the same photos, rounded to the file's decimals: the same coverage within a sample or two
+    assert abs(mission["coverage_pct"] - route["coverage_pct"]) < 0.5
+    assert mission["safe"]

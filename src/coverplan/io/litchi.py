@@ -14,6 +14,7 @@ from coverplan.errors import InputFileError
 from coverplan.files import write_atomic
 from coverplan.flight.missions import GROUND, TAKEOFF, MissionBuilder
 from coverplan.io.geoflight import geo_flight
+from coverplan.io.csv_waypoints import is_waypoint_csv, read_waypoint_csv
 from coverplan.io.registry import register_mission_reader, register_writer
 
 MAX_WAYPOINTS = 99
@@ -108,6 +109,8 @@ def read_litchi(path):
     """
 
     path = Path(path)
+    if is_waypoint_csv(path):  # coverplan's own CSV export
+        return read_waypoint_csv(path)
     parts = _parts(path)
     b = MissionBuilder(path, "Litchi mission")
     if len(parts) > 1:
