@@ -78,3 +78,13 @@ def test_a_bad_building_id_is_told_before_an_existing_output(tmp_path, capsys):
     assert_one_line_error(code, err, "no city object with id")
     code, _, err = run(capsys, "plan", HOUSE, *CAMERA, "--gsd", "0.004", "--security", "3", "-o", tmp_path / "r.json")
     assert_one_line_error(code, err, "exists", "--force")
+
+
+def test_every_option_of_every_subcommand_has_help():
+    from coverplan.cli.main import build_parser
+
+    parser = build_parser()
+    lacking = [f"{name} {a.option_strings or a.dest}"
+               for name, sub in parser._subparsers._group_actions[0].choices.items()
+               for a in sub._actions if a.dest != "help" and not a.help]
+    assert not lacking, lacking

@@ -51,7 +51,8 @@ def add_scene_args(p, targets_positional: bool, recorded: bool = False):
                    help="up axis of the mesh files (default z; glTF/GLB default y)")
     p.add_argument("--building", default=None, metavar="ID",
                    help="CityGML/CityJSON: id of the target building (the others nearby become obstacles)")
-    p.add_argument("--lod", type=int, default=None, help="CityGML/CityJSON: level of detail (default: highest)")
+    p.add_argument("--lod", type=int, default=None, metavar="N",
+                   help="CityGML/CityJSON: level of detail (default: highest)")
     p.add_argument("--context-radius", type=float, default=None, metavar="M",
                    help="CityGML/CityJSON: city objects within this distance become obstacles (default 150)")
     p.add_argument("--crs", default=None, metavar="EPSG:XXXX",
@@ -162,9 +163,12 @@ def mission_route(args, scene):
 def add_camera_args(p):
     p.add_argument("--camera", default=None, metavar="PRESET",
                    help=f"camera preset: {', '.join(sorted(PRESETS))} (see 'coverplan cameras')")
-    p.add_argument("--sensor-mm", nargs=2, type=float, default=None, metavar=("W", "H"))
-    p.add_argument("--focal-mm", type=float, default=None, metavar="F")
-    p.add_argument("--image-px", nargs=2, type=float, default=None, metavar=("W", "H"))
+    p.add_argument("--sensor-mm", nargs=2, type=float, default=None, metavar=("W", "H"),
+                   help="a camera without a preset: sensor width and height in mm (with --focal-mm, --image-px)")
+    p.add_argument("--focal-mm", type=float, default=None, metavar="F",
+                   help="a camera without a preset: the lens's real focal length in mm (not the 35 mm equivalent)")
+    p.add_argument("--image-px", nargs=2, type=float, default=None, metavar=("W", "H"),
+                   help="a camera without a preset: photo width and height in pixels")
 
 
 def plan_options(args, formats: list[str]) -> dict:
@@ -256,7 +260,7 @@ def add_simulate_args(p):
     add_mapper_arg(p)
     p.add_argument("--texture", default="noise", choices=("noise", "cells"),
                    help="texture family under field/harsh conditions: noise (value noise) or cells (cellular stone)")
-    p.add_argument("--threads", type=int, default=-1, help="threads for SfM (default: all cores)")
+    p.add_argument("--threads", type=int, default=-1, metavar="N", help="threads for SfM (default: all cores)")
 
 
 def add_planning_args(p):
@@ -302,17 +306,19 @@ def add_planning_args(p):
     p.add_argument("--lane-cost", type=float, default=DEFAULT_LANE_STEPS, metavar="STEPS",
                    help=f"lanes: how much path the tour gives up to fly each lane end to end, in typical steps "
                         f"(default {DEFAULT_LANE_STEPS:g})")
-    p.add_argument("--min-views", type=int, default=None, help="views per surface point (default 3; thesis rule 2)")
-    p.add_argument("--min-triangulation-deg", type=float, default=5.0)
+    p.add_argument("--min-views", type=int, default=None, metavar="N",
+                   help="views per surface point (default 3; thesis rule 2)")
+    p.add_argument("--min-triangulation-deg", type=float, default=5.0, metavar="DEG",
+                   help="narrowest angle between two views of a point that triangulates it (default 5)")
     p.add_argument("--max-pair-deg", type=float, default=None, metavar="DEG",
                    help="sfm rule: widest view pair SfM is trusted to match (default 35)")
     p.add_argument("--min-overlap", type=float, default=None, metavar="FRACTION",
                    help="sfm rule: surface two linked photos share (default 0.3)")
-    p.add_argument("--min-neighbours", type=int, default=None,
+    p.add_argument("--min-neighbours", type=int, default=None, metavar="N",
                    help="sfm rule: linked photos every photo needs (default 2)")
     p.add_argument("--links", choices=["braced", "one-piece"], default=None,
                    help="sfm rule: braced (default): no photo is the only link between two groups of photos; "
-                        "one-piece: the photos only need to link into one set (the rule before December 2026)")
+                        "one-piece: the photos only need to link into one set")
     p.add_argument("--link-test", choices=list(LINK_TESTS), default=None,
                    help="sfm rule: how two photos' rays to the surface both see are judged: centroid (default): "
                         "at the centroid of all of it; faces: face by face, each within 60 deg of both photos "
@@ -326,7 +332,8 @@ def add_planning_args(p):
                    help="sfm rule: views per surface point whose frame its face fills (25 %%, or most of the best "
                         "any safe viewpoint gives), within 50 deg of its normal; towers and spires get views from "
                         "closer in (default 0: none asked; try 2 for towers and spires)")
-    p.add_argument("--max-incidence-deg", type=float, default=70.0)
+    p.add_argument("--max-incidence-deg", type=float, default=70.0, metavar="DEG",
+                   help="widest angle between a view and the surface normal that counts as imaging it (default 70)")
     p.add_argument("--min-altitude", type=float, default=None, metavar="M",
                    help="lowest flight height above the ground (default: the security distance)")
     p.add_argument("--max-altitude", type=parse_ceiling, default=DEFAULT_CEILING_M, metavar="M|none",
@@ -341,14 +348,16 @@ def add_planning_args(p):
     p.add_argument("--max-mission-items", type=int, default=None, metavar="N",
                    help="split the tour so that each flight's QGC plan / WPL file has at most N mission items "
                         "(default: 500, PX4's limit, when plan exports a .plan for PX4; else no limit)")
-    p.add_argument("--gimbal-min-deg", type=float, default=None, help="lowest gimbal pitch (default: the drone's, else -90)")
-    p.add_argument("--gimbal-max-deg", type=float, default=None, help="highest gimbal pitch (default: the drone's, else 30)")
+    p.add_argument("--gimbal-min-deg", type=float, default=None, metavar="DEG",
+                   help="lowest gimbal pitch in degrees (default: the drone's, else -90)")
+    p.add_argument("--gimbal-max-deg", type=float, default=None, metavar="DEG",
+                   help="highest gimbal pitch in degrees (default: the drone's, else 30)")
     p.add_argument("--spacing", type=float, default=None, metavar="M",
                    help="surface sample spacing (default d_opt/8, coarser for huge targets)")
     p.add_argument("--speed", type=float, default=None, metavar="M_PER_S",
                    help="cruise speed between waypoints (default: the drone's, else 5)")
-    p.add_argument("--shot-seconds", type=float, default=None,
-                   help="hover time per photo (default: the drone's photo interval, at least 1 s)")
+    p.add_argument("--shot-seconds", type=float, default=None, metavar="S",
+                   help="hover time per photo in seconds (default: the drone's photo interval, at least 1 s)")
     p.add_argument("--lp-time-limit", type=float, default=LP_TIME_LIMIT_S, metavar="S",
                    help=f"time for the LP that guides view selection and bounds it (default {LP_TIME_LIMIT_S:g}; "
                         "0: plain greedy; an LP that runs out of time is dropped, with a warning)")

@@ -44,7 +44,7 @@ def cmd_check(args) -> int:
 def register(sub) -> None:
     """Add the subcommand to ``sub`` (argparse subparsers)."""
     p = sub.add_parser("check", help="reconstruct a flight's real photos (EXIF/XMP positions) and say what is missing")
-    p.add_argument("photos", metavar="PHOTOS_DIR")
+    p.add_argument("photos", metavar="PHOTOS_DIR", help="folder of the flight's photos (JPEG with GNSS tags)")
     add_scene_args(p, targets_positional=False)
     p.add_argument("-o", "--output", required=True, metavar="DIR",
                    help="folder for COLMAP files, check.json, missing.ply and missing.geojson")
@@ -55,13 +55,13 @@ def register(sub) -> None:
     p.add_argument("--report", default=None, metavar="REPORT.html", help="also write the HTML report of the flight")
     p.add_argument("--no-fit", dest="fit", action="store_false",
                    help="judge the model as aligned through the GNSS tags, without fitting it to the scene")
-    p.add_argument("--threads", type=int, default=-1)
+    p.add_argument("--threads", type=int, default=-1, metavar="N", help="threads for SfM (default: all cores)")
     p.add_argument("--working-px", type=int, default=WORKING_PX, metavar="PX",
                    help=f"find features on the photos scaled down to this longest side (default {WORKING_PX}; "
                         "0: full size)")
     add_mapper_arg(p)
     p.add_argument("--json", action="store_true", help="print the result as JSON")
-    p.add_argument("--strict", action="store_true", help="exit 1 unless the photos reconstruct (DESIGN.md)")
-    p.add_argument("-q", "--quiet", action="store_true")
-    p.add_argument("-v", "--verbose", action="store_true")
+    p.add_argument("--strict", action="store_true", help="exit 1 unless the photos reconstruct into one model that covers the target")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars or table")
+    p.add_argument("-v", "--verbose", action="store_true", help="log each stage's time")
     p.set_defaults(func=cmd_check)

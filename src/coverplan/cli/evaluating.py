@@ -78,5 +78,6 @@ def register(sub) -> None:
     p.add_argument("--json", action="store_true", help="print the metrics as JSON")
     p.add_argument("--strict", action="store_true",
                    help="exit 1 when the route is unsafe or coverage is below --min-coverage")
-    p.add_argument("--min-coverage", type=float, default=None, metavar="PCT")
+    p.add_argument("--min-coverage", type=float, default=None, metavar="PCT",
+                   help="with --strict: the least coverage in percent that passes (default: none asked)")
     p.set_defaults(func=cmd_evaluate)

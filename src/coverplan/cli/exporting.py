@@ -40,13 +40,15 @@ def cmd_export(args) -> int:
 def register(sub) -> None:
     """Add the subcommand to ``sub`` (argparse subparsers)."""
     p = sub.add_parser("export", help="write a route for autopilots: QGC .plan, WPL, Litchi, DJI WPML, KML, GeoJSON, CSV")
-    p.add_argument("route", metavar="ROUTE.json")
+    p.add_argument("route", metavar="ROUTE.json", help="a route written by coverplan plan")
     p.add_argument("--format", required=True, metavar="FORMATS",
                    help="comma separated: qgc,wpl,litchi,wpml,kml,geojson,csv")
     p.add_argument("-o", "--output", default=None, metavar="PREFIX", help="default: the route path without .json")
     p.add_argument("--crs", default=None, metavar="EPSG:XXXX", help="the CRS of a route that has none")
-    p.add_argument("--geo-origin", nargs=3, type=float, default=None, metavar=("LAT", "LON", "H"))
+    p.add_argument("--geo-origin", nargs=3, type=float, default=None, metavar=("LAT", "LON", "H"),
+                   help="of a route that has no georeference: the WGS84 position of its frame's origin")
     p.add_argument("--drone", default=None, metavar="NAME", help="for WPML: the drone (default: the route's)")
     add_export_args(p)
-    p.add_argument("--speed", type=float, default=None, metavar="M_PER_S")
+    p.add_argument("--speed", type=float, default=None, metavar="M_PER_S",
+                   help="cruise speed written into the missions (default: the drone's, else 5)")
     p.set_defaults(func=cmd_export)

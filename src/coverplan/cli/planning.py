@@ -93,7 +93,8 @@ def register(sub) -> None:
                         "only what they do not give")
     p.add_argument("--no-evaluate", dest="evaluate", action="store_false",
                    help="skip the independent evaluation of the planned route")
-    p.add_argument("-o", "--output", required=True, metavar="ROUTE.json")
+    p.add_argument("-o", "--output", required=True, metavar="ROUTE.json",
+                   help="the route file to write (exports, report and figures are named after it)")
     p.add_argument("--report", default=None, metavar="REPORT.html", help="also write the HTML flight report")
     p.add_argument("--plot", default=None, metavar="PREFIX", help="also write PNG figures PREFIX_*.png")
     p.add_argument("--force", action="store_true",

@@ -36,17 +36,18 @@ def register(sub) -> None:
     for name, helptext in (("report", "write the HTML flight report (and/or PNG figures) of a route"),
                            ("plot", "write PNG figures (and/or the HTML report) of a route")):
         p = sub.add_parser(name, help=helptext)
-        p.add_argument("route", metavar="ROUTE.json")
+        p.add_argument("route", metavar="ROUTE.json", help="a route written by coverplan plan")
         add_scene_args(p, targets_positional=False, recorded=True)
-        p.add_argument("--spacing", type=float, default=None, metavar="M")
+        p.add_argument("--spacing", type=float, default=None, metavar="M",
+                       help="surface sample spacing in metres (default 0.25)")
         p.add_argument("--simulation", default=None, metavar="SIMULATION.json",
                        help="show what 'coverplan simulate' recovered (its DIR/simulation.json)")
         if name == "report":
-            p.add_argument("-o", "--output", dest="report", default=None, metavar="REPORT.html")
-            p.add_argument("--plot", default=None, metavar="PREFIX")
+            p.add_argument("-o", "--output", dest="report", default=None, metavar="REPORT.html", help="the HTML report")
+            p.add_argument("--plot", default=None, metavar="PREFIX", help="also PNG figures PREFIX_*.png")
         else:
-            p.add_argument("-o", "--output", dest="plot", default=None, metavar="PREFIX")
-            p.add_argument("--report", default=None, metavar="REPORT.html")
-        p.add_argument("-q", "--quiet", action="store_true")
-        p.add_argument("-v", "--verbose", action="store_true")
+            p.add_argument("-o", "--output", dest="plot", default=None, metavar="PREFIX", help="PNG figures PREFIX_*.png")
+            p.add_argument("--report", default=None, metavar="REPORT.html", help="also the HTML report")
+        p.add_argument("-q", "--quiet", action="store_true", help="no progress bars or table")
+        p.add_argument("-v", "--verbose", action="store_true", help="log each stage's time")
         p.set_defaults(func=cmd_report)

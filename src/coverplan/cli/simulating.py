@@ -52,13 +52,13 @@ def simulate_route(route, scene, out_dir, args) -> int:
 def register(sub) -> None:
     """Add the subcommand to ``sub`` (argparse subparsers)."""
     p = sub.add_parser("simulate", help="render a route's photos, reconstruct them with COLMAP, judge the result")
-    p.add_argument("route", metavar="ROUTE.json")
+    p.add_argument("route", metavar="ROUTE.json", help="a route written by coverplan plan")
     add_scene_args(p, targets_positional=False, recorded=True)
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="folder for photos, COLMAP files and simulation.json")
     add_simulate_args(p)
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--strict", action="store_true",
-                   help="exit 1 unless the flight is reconstructable (DESIGN.md: one model, >= 95 %% surface)")
-    p.add_argument("-q", "--quiet", action="store_true")
-    p.add_argument("-v", "--verbose", action="store_true")
+                   help="exit 1 unless the flight is reconstructable (one model with >= 98 %% of the photos and >= 95 %% of the surface; docs/reconstruction.md)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars or table")
+    p.add_argument("-v", "--verbose", action="store_true", help="log each stage's time")
     p.set_defaults(func=cmd_simulate)
