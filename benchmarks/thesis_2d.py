@@ -5,7 +5,7 @@ The four shapes of Figure 4.1 (perimeters 60, 80, 90 and 60 m) in a 50 x 50 grid
 cells, d_opt 7 m, security 3 m, 80 deg horizontal FOV, start in the upper-left corner. The
 voxel baseline plans the 2D grid; the mesh planner plans the same shape as a 1 m thin prism
 (façades only, flying down to the ground). Both routes are evaluated on the prism's walls
-under the thesis's rule (in view, in sight, facing: any range) and DESIGN.md's strict one.
+under the thesis's rule (in view, in sight, facing: any range) and the strict one of docs/design.md.
 Then the obstacle collections of 4.1.2: 3 big (9 m) and 5 small (4 m) square obstacles at
 random, 10 fixed seeds each for the square and the L; configurations where an obstacle hides
 part of the target are counted (the thesis dropped them), as voxel failures.

@@ -44,7 +44,7 @@ def camera_frame(heading_deg, pitch_deg):
 
 def images(position, heading, pitch, camera, points, normals, triangles, d_opt, max_incidence_deg,
            offset=1e-3) -> np.ndarray:
-    """Boolean per point: does this one shot image it (DESIGN.md's four conditions)?"""
+    """Boolean per point: does this one shot image it (docs/design.md's four conditions)?"""
     right, up, forward = camera_frame(heading, pitch)
     v = points - position
     dist = np.linalg.norm(v, axis=1)

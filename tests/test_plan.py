@@ -73,7 +73,7 @@ def test_sample_scene_is_covered_and_safe(planned, name):
 
 
 def test_mean_fine_coverage(planned):
-    """DESIGN.md's bar for the default plans: mean coverage at 0.25 m at least 99.9 %."""
+    """The bar for the default plans (docs/design.md): mean coverage at 0.25 m at least 99.9 %."""
     assert np.mean([ev.coverage_pct for _s, _r, ev in planned.values()]) >= 99.9
 
 

@@ -57,13 +57,31 @@ def write_atomic_bytes(path, data: bytes) -> Path:
 
 
 def relative_to(record: dict, folder) -> dict:
-    """A scene record (io/scene_record.py) with each path relative to ``folder`` where it can be (same drive)."""
+    """A scene record (io/scene_record.py) with each path relative to ``folder`` where the file
+    lies within two levels above it (a project folder that moves as a whole); others absolute."""
     def rel(entry):
-        if entry is None:
+        if not isinstance(entry, dict) or not isinstance(entry.get("path"), str):
             return None
         try:
-            return dict(entry, path=os.path.relpath(entry["path"], folder))
+            path = os.path.relpath(entry["path"], folder)
         except ValueError:  # another drive (Windows): keep it absolute
             return dict(entry)
-    return {"files": {k: [rel(e) for e in v] for k, v in record["files"].items()},
-            "terrain": rel(record.get("terrain")), "options": dict(record.get("options", {}))}
+        ups = Path(path).parts[:3].count("..")
+        return dict(entry, path=path if ups <= 2 and not path.startswith(os.path.join(*[".."] * 3)) else entry["path"])
+    return _paths_mapped(record, rel)
+
+
+def absolute_to(record: dict, folder) -> dict:
+    """A scene record with each relative path taken from ``folder`` (the inverse of ``relative_to``)."""
+    def absolute(entry):
+        if not isinstance(entry, dict) or not isinstance(entry.get("path"), str) or os.path.isabs(entry["path"]):
+            return dict(entry) if isinstance(entry, dict) else None
+        return dict(entry, path=os.path.normpath(os.path.join(folder, entry["path"])))
+    return _paths_mapped(record, absolute)
+
+
+def _paths_mapped(record: dict, func) -> dict:
+    files = record.get("files") if isinstance(record.get("files"), dict) else {}
+    return {"files": {k: [func(e) for e in v if isinstance(e, dict) and isinstance(e.get("path"), str)]
+                      for k, v in files.items() if isinstance(v, list)},
+            "terrain": func(record.get("terrain")), "options": dict(record.get("options", {}))}

@@ -29,10 +29,10 @@ def cmd_export(args) -> int:
     stem = args.output or (args.route[:-5] if args.route.lower().endswith(".json") else args.route)
     refused: list = []
     written = export_route(route, stem, formats, refused=refused, **export_options(args))
-    for name, why in refused:
-        print(f"coverplan: not written as {name}: {why}", file=sys.stderr)
     if not written:
         raise ParameterError("no format could be written: " + "; ".join(f"{n}: {w}" for n, w in refused))
+    for name, why in refused:
+        print(f"coverplan: not written as {name}: {why}", file=sys.stderr)
     print("written: " + ", ".join(str(p) for p in written))
     return 0
 

@@ -1,4 +1,4 @@
-"""Pinhole camera model, presets, and the GSD <-> distance relations of DESIGN.md."""
+"""Pinhole camera model, presets, and the GSD <-> distance relations of docs/design.md."""
 
 from __future__ import annotations
 

@@ -59,7 +59,7 @@ def view_limits(route: Route, scene, rule: str = "strict") -> ViewLimits:
 
 @dataclass
 class Evaluation:
-    """Per-sample results and the metrics of DESIGN.md for one route."""
+    """Per-sample results and the metrics of docs/design.md for one route."""
 
     route: Route
     samples: SurfaceSamples
@@ -105,7 +105,7 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
         Judge on these samples instead of drawing new ones.
     progress : Progress, optional
     rule : {"strict", "thesis"}
-        "strict" is DESIGN.md's imaging rule; "thesis" the thesis's: in the frustum, in sight
+        "strict" is docs/design.md's imaging rule; "thesis" the thesis's: in the frustum, in sight
         and facing the camera, at any range (GSD not checked).
     classes : sequence of str, optional
         Judge only these of facade / roof / terrace / opposed_terrace; None: the classes the
@@ -158,7 +158,7 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
     for k in np.flatnonzero(inside):  # a waypoint inside a mesh has no clearance at all
         seg_d[max(k - 1, 0)] = 0.0
         seg_d[min(k, len(seg_d) - 1)] = 0.0
-    # A shot the route flies safely proves the samples it images (under DESIGN.md's rule) reachable.
+    # A shot the route flies safely proves the samples it images (under docs/design.md's rule) reachable.
     last = len(seg_d) - 1
     near = np.minimum(seg_d[np.clip(shots - 1, 0, last)], seg_d[np.clip(shots, 0, last)])
     shot_safe = (near >= route.security) & ~inside[shots] & limits.above_floor(positions[shots])

@@ -1,4 +1,4 @@
-"""Route: the flight as DESIGN.md's route file describes it, with save / load / validate."""
+"""Route: the flight as the route file (docs/route-format.md) describes it, with save / load / validate."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import numpy as np
 
 from coverplan.equipment.camera import Camera
 from coverplan.errors import ParameterError, RouteFormatError
-from coverplan.files import read_json, relative_to, write_atomic
+from coverplan.files import absolute_to, read_json, relative_to, write_atomic
 from coverplan.flight.passing import corner_offsets, turn_angles
 from coverplan.geometry.orientation import (
     angle_between_deg,
@@ -239,7 +239,10 @@ class Route:
         path = Path(path)
         if not path.exists():
             raise RouteFormatError(path, "no such file")
-        return cls.from_dict(read_json(path, RouteFormatError), path)
+        route = cls.from_dict(read_json(path, RouteFormatError), path)
+        if isinstance(route.params.get("scene"), dict):  # its files as the route file names them
+            route.params["scene"] = absolute_to(route.params["scene"], path.resolve().parent)
+        return route
 
     @classmethod
     def from_dict(cls, data, path="route") -> "Route":

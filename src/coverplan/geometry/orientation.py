@@ -1,4 +1,4 @@
-"""Heading / gimbal pitch <-> view direction, as DESIGN.md fixes them.
+"""Heading / gimbal pitch <-> view direction, as docs/design.md fixes them.
 
 Heading: degrees clockwise from +y (north) in [0, 360). Pitch: degrees, 0 horizontal,
 -90 straight down, positive up. All functions take and return arrays.

@@ -1,6 +1,6 @@
 """simulate(): render a route's photos on the scene, run SfM on them, and say what came back.
 
-The judge of a plan is a reconstruction (DESIGN.md): photos registered in the largest model,
+The judge of a plan is a reconstruction (docs/design.md): photos registered in the largest model,
 number of models, 3D points, reprojection and camera-centre errors, and the share of the
 target surface with a 3D point within 0.1 m and 0.2 m, overall and per surface class.
 """
@@ -39,7 +39,7 @@ from coverplan.sfm.render import (
 DEFAULT_WIDTH_PX = 1024
 JUDGE_SPACING_M = 0.1
 PAIRS_PER_PHOTO = 60  # matched per photo in flights too large for exhaustive matching (30 split fig411)
-# Reconstructable (DESIGN.md): one model holding >= 98 % of the photos, >= 95 % of the
+# Reconstructable (docs/design.md): one model holding >= 98 % of the photos, >= 95 % of the
 # surface within 0.2 m of a 3D point and >= 90 % in every class.
 REGISTERED_MIN = 0.98
 SURFACE_MIN = 95.0

@@ -1,6 +1,6 @@
 """What Structure-from-Motion needs of a set of shots, beyond "two views 5 deg apart".
 
-Measured with ``coverplan simulate`` (DESIGN.md, docs/reconstruction.md): photos more than
+Measured with ``coverplan simulate`` (docs/design.md, docs/reconstruction.md): photos more than
 ~40 deg apart rarely match, surface seen by only two photos is seldom reconstructed, and a
 set of photos whose "easy" pairs do not chain together falls apart into several models. So:
 

@@ -121,7 +121,7 @@ def view_plan(cells: np.ndarray, d_opt: float, d_sec: float, hfov_deg: float, in
     """Viewpoints covering a 2D grid's target surface twice, by the thesis's procedure.
 
     ``initial`` is the initial point (cell coordinates, may be fractional). With
-    ``range_capped`` a viewpoint only sees points within d_opt (DESIGN.md's rule); the
+    ``range_capped`` a viewpoint only sees points within d_opt (docs/design.md's rule); the
     thesis's own rule has no range limit. ``region`` replaces the shot region (a bool grid).
     ``facing_free_only`` keeps only surface points next to free cells (a terrace's edge along
     the wall above it is seen from above, not from the side).
