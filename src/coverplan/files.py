@@ -66,8 +66,7 @@ def relative_to(record: dict, folder) -> dict:
             path = os.path.relpath(entry["path"], folder)
         except ValueError:  # another drive (Windows): keep it absolute
             return dict(entry)
-        ups = Path(path).parts[:3].count("..")
-        return dict(entry, path=path if ups <= 2 and not path.startswith(os.path.join(*[".."] * 3)) else entry["path"])
+        return dict(entry, path=path if Path(path).parts.count("..") <= 2 else entry["path"])
     return _paths_mapped(record, rel)
 
 

@@ -61,7 +61,8 @@ def register(sub) -> None:
                         "0: full size)")
     add_mapper_arg(p)
     p.add_argument("--json", action="store_true", help="print the result as JSON")
-    p.add_argument("--strict", action="store_true", help="exit 1 unless the photos reconstruct into one model that covers the target")
+    p.add_argument("--strict", action="store_true",
+                   help="exit 1 unless the photos reconstruct into one model that covers the target")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars or table")
     p.add_argument("-v", "--verbose", action="store_true", help="log each stage's time")
     p.set_defaults(func=cmd_check)

@@ -46,7 +46,8 @@ def register(sub) -> None:
             p.add_argument("-o", "--output", dest="report", default=None, metavar="REPORT.html", help="the HTML report")
             p.add_argument("--plot", default=None, metavar="PREFIX", help="also PNG figures PREFIX_*.png")
         else:
-            p.add_argument("-o", "--output", dest="plot", default=None, metavar="PREFIX", help="PNG figures PREFIX_*.png")
+            p.add_argument("-o", "--output", dest="plot", default=None, metavar="PREFIX",
+                           help="PNG figures PREFIX_*.png")
             p.add_argument("--report", default=None, metavar="REPORT.html", help="also the HTML report")
         p.add_argument("-q", "--quiet", action="store_true", help="no progress bars or table")
         p.add_argument("-v", "--verbose", action="store_true", help="log each stage's time")

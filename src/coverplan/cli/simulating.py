@@ -58,7 +58,8 @@ def register(sub) -> None:
     add_simulate_args(p)
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--strict", action="store_true",
-                   help="exit 1 unless the flight is reconstructable (one model with >= 98 %% of the photos and >= 95 %% of the surface; docs/reconstruction.md)")
+                   help="exit 1 unless the flight is reconstructable (one model with >= 98 %% of the photos and "
+                        ">= 95 %% of the surface; docs/design.md)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars or table")
     p.add_argument("-v", "--verbose", action="store_true", help="log each stage's time")
     p.set_defaults(func=cmd_simulate)

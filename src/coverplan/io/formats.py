@@ -127,6 +127,15 @@ def parse_formats(text: str | None) -> list[str]:
     return names
 
 
+def _misfit(check, flights, options) -> str | None:
+    """Why the first flight that does not fit a format's check does not (None: all fit)."""
+    for k, flight in enumerate(flights, start=1):
+        why = None if check is None else check(flight, **options)
+        if why:
+            return f"{f'flight {k} has' if len(flights) > 1 else 'the flight has'} {why}"
+    return None
+
+
 def export_route(route, stem, formats, refused: list | None = None, **options) -> list[Path]:
     """Write ``route`` in each format as STEM + the format's suffix; a route of several battery
     flights as one file per flight, STEM.f1 + suffix, STEM.f2 + suffix, ...
@@ -139,10 +148,7 @@ def export_route(route, stem, formats, refused: list | None = None, **options) -
     flights = [route] if route.n_flights <= 1 else [route.flight_route(k) for k in range(1, route.n_flights + 1)]
     fitting = []
     for name in formats:
-        check = WRITER_CHECKS.get(name)
-        why = next((f"{f'flight {k} has' if len(flights) > 1 else 'the flight has'} {w}"
-                    for k, w in ((k, None if check is None else check(f, **options))
-                                 for k, f in enumerate(flights, start=1)) if w), None)
+        why = _misfit(WRITER_CHECKS.get(name), flights, options)
         if why is None:
             fitting.append(name)
         elif refused is None:

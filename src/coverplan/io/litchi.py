@@ -13,8 +13,8 @@ import numpy as np
 from coverplan.errors import InputFileError
 from coverplan.files import write_atomic
 from coverplan.flight.missions import GROUND, TAKEOFF, MissionBuilder
-from coverplan.io.geoflight import geo_flight
 from coverplan.io.csv_waypoints import is_waypoint_csv, read_waypoint_csv
+from coverplan.io.geoflight import geo_flight
 from coverplan.io.registry import register_mission_reader, register_writer
 
 MAX_WAYPOINTS = 99

@@ -157,8 +157,7 @@ def load_scene(targets: str | Path | MeshSource | Sequence[str | Path | MeshSour
 CITY_TERRAIN_STEP_M = 1.0  # grid of a city model's ground surfaces
 
 
-
-def scene_from_record(record: dict, route_path, progress=None):
+def scene_from_record(record: dict, route_path):
     """Load the scene a route records, its paths taken relative to the route's folder.
 
     Raises

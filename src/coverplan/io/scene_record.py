@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+from functools import lru_cache
 from pathlib import Path
 
 FILE_LISTS = ("targets", "obstacles", "obstacle_points")
@@ -20,7 +21,15 @@ OPTIONS = ("units", "ground", "target_names", "up_axis", "building", "lod", "con
 
 
 def file_hash(path) -> str:
-    """SHA-256 of a file's bytes, hex."""
+    """SHA-256 of a file's bytes, hex (a file unchanged since it was last hashed is not read again:
+    a route's scene is checked against its record, then recorded again as it loads)."""
+    path = Path(path).resolve()
+    stat = path.stat()
+    return _hash(str(path), stat.st_size, stat.st_mtime_ns)
+
+
+@lru_cache(maxsize=256)
+def _hash(path: str, _size: int, _mtime_ns: int) -> str:
     digest = hashlib.sha256()
     with open(path, "rb") as fh:
         for block in iter(lambda: fh.read(1 << 20), b""):

@@ -186,7 +186,7 @@ def _route(flights, shots, camera, scene, limits, settings: PlanSettings, spacin
     if scene.terrain is not None:
         ground = scene.terrain.height(pos[:, :2])
         params["terrain"] = scene.terrain.source
-    if getattr(scene, "source", None) is not None:
+    if scene.source is not None:
         params["scene"] = scene.source
     return Route(pos, is_shot, heading, pitch, legs, camera, params, frame=scene.frame, uncovered=uncovered,
                  flight=flight, ground_z=ground)

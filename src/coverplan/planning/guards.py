@@ -63,9 +63,8 @@ def check_endurance(minutes: float, settings, max_flight_min: float | None) -> N
     if minutes > BATTERIES * longest.usable_flight_min:
         raise ParameterError(f"the flight takes {minutes:.0f} min in one go, over {BATTERIES:g} times as long as any "
                              f"drone flies on a battery (the {longest.label}: {longest.usable_flight_min:g} min): "
-                             f"a unit slip in --gsd or "
-                             f"--security? Give --drone or --max-flight-min to split it into battery flights, or "
-                             f"{FORCE}")
+                             f"a unit slip in --gsd or --security? Give --drone or --max-flight-min to split it into "
+                             f"battery flights, or {FORCE}")
 
 
 __all__ = ["check_unit_slips", "check_endurance", "target_size"]
