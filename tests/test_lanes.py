@@ -162,9 +162,9 @@ def test_square_views_keep_every_guarantee_and_fly_smoother(gabled):
 def test_view_tilts_flag_reaches_the_route_and_the_summary(tmp_path, capsys):
     out = tmp_path / "route.json"
     code = main(["plan", str(MESHES / "square_prism.obj"), "--gsd", "0.004", "--security", "3", "--camera",
-                 "phantom4pro", "--view-tilts", "square", "-o", str(out)])
+                 "phantom4pro", "--view-tilts", "square", "-o", str(out), "-v"])
     assert code == 0
-    shown = capsys.readouterr().out
+    shown = capsys.readouterr().out  # the tour's figures are the planner's: under -v
     assert "view tilts square, a reversal costs the tour" in shown and "m (6 steps)" in shown
     assert "a step that turns the camera" in shown and "m (2 steps)" in shown
     assert json.loads(out.read_text())["params"]["view_tilts"] == "square"

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import glob
 import sys
 from pathlib import Path
 
@@ -40,7 +41,7 @@ class _Unparsed(Exception):
 def missing_input(parser: argparse.ArgumentParser, argv: list[str]) -> str | None:
     """The one-line error for an input file that is not there, found with the options' own
     checks relaxed (a missing file is the first thing to tell, not a missing ``--gsd``)."""
-    if not argv or argv[0] not in INPUTS:
+    if not argv or argv[0] not in INPUTS or {"-h", "--help"} & set(argv):
         return None
     sub = parser._subparsers._group_actions[0].choices[argv[0]]
     saved = [(a, a.required) for a in sub._actions if a.option_strings]
@@ -63,7 +64,7 @@ def missing_input(parser: argparse.ArgumentParser, argv: list[str]) -> str | Non
     given = getattr(ns, INPUTS[argv[0]], None)
     paths = given if isinstance(given, list) else [given]
     for path in paths:
-        if isinstance(path, str) and path and not Path(path).exists():
+        if isinstance(path, str) and path and not Path(path).exists() and not glob.has_magic(path):
             return f"{path}: no such file or folder"
     return None
 

@@ -7,17 +7,17 @@ import sys
 from coverplan.cli.args import (
     add_planning_args,
     add_scene_args,
-    add_simulate_args,
     camera_from_args,
     drone_from_args,
     export_options,
     plan_options,
     scene_from_args,
 )
-from coverplan.cli.simulating import simulate_route
+from coverplan.cli.simulating import simulate_defaults, simulate_route
 from coverplan.cli.summary import plan_summary
 from coverplan.equipment.drones import security_shortfall
 from coverplan.errors import ParameterError
+from coverplan.flight.start import start_from_latlon
 from coverplan.io import GEOGRAPHIC_FORMATS, parse_formats
 from coverplan.job import run_job, write_pictures
 from coverplan.progress import Progress
@@ -57,6 +57,10 @@ def cmd_plan(args) -> int:
             raise ParameterError(f"{shortfall} (--strict)")
     # --start is in the input models' coordinates, like the meshes: move it with them.
     start = None if args.start is None else scene.to_local(args.start)
+    if args.start_latlon is not None:
+        if start is not None:
+            raise ParameterError("give --start or --start-latlon, not both")
+        start = start_from_latlon(scene, args.start_latlon)
     options = plan_options(args, formats)
     options["force"] = args.force
     if args.existing:
@@ -68,10 +72,10 @@ def cmd_plan(args) -> int:
     if job.exports_withheld:
         print("coverplan: the evaluator found the route unsafe; no mission was exported", file=sys.stderr)
     if not args.quiet:
-        print(plan_summary(route))
+        print(plan_summary(route, verbose=args.verbose))
         print("written: " + ", ".join(str(p) for p in written))
     if args.simulate:
-        code = simulate_route(route, scene, args.simulate, args)
+        code = simulate_route(route, scene, args.simulate, simulate_defaults(args))
         if args.report:
             write_pictures(route, scene, ev, args.report, args.plot, progress,
                            Simulation.load(Path(args.simulate) / "simulation.json"))
@@ -81,31 +85,42 @@ def cmd_plan(args) -> int:
 
 def register(sub) -> None:
     """Add the subcommand to ``sub`` (argparse subparsers)."""
-    p = sub.add_parser("plan", help="plan a safe flight covering the target surface")
-    add_scene_args(p, targets_positional=True)
-    add_planning_args(p)
-    p.add_argument("--start", nargs=3, type=float, default=None, metavar=("X", "Y", "Z"),
-                   help="start and end point, in the input models' coordinates (default: just outside "
-                        "the shot region, north-west)")
-    p.add_argument("--existing", default=None, metavar="PHOTOS_DIR|MISSION",
-                   help="photos already taken (a folder of photos with GPS tags, a route .json, or a mission: "
-                        "QGC .plan, .waypoints, Litchi .csv, DJI .kmz): their views count and the new flight takes "
-                        "only what they do not give")
-    p.add_argument("--no-evaluate", dest="evaluate", action="store_false",
-                   help="skip the independent evaluation of the planned route")
-    p.add_argument("-o", "--output", required=True, metavar="ROUTE.json",
-                   help="the route file to write (exports, report and figures are named after it)")
-    p.add_argument("--report", default=None, metavar="REPORT.html", help="also write the HTML flight report")
-    p.add_argument("--plot", default=None, metavar="PREFIX", help="also write PNG figures PREFIX_*.png")
-    p.add_argument("--force", action="store_true",
-                   help="overwrite an existing output file, and plan a GSD, security distance, altitude or flight "
-                        "time that looks like a unit slip (refused without it)")
-    p.add_argument("--strict", action="store_true",
-                   help="refuse a security distance below the drone's position error bound plus 1 m; "
-                        "with --simulate, exit 1 unless the photos reconstruct")
+    p = sub.add_parser("plan", help="plan a safe flight covering the target surface",
+                       usage="coverplan plan TARGET [TARGET ...] (--drone NAME | --camera PRESET | --sensor-mm W H "
+                             "--focal-mm F --image-px W H) --gsd M_PER_PX --security M -o ROUTE.json [options]",
+                       description="Plan a safe photo flight whose photos rebuild the target surface. The options "
+                                   "are grouped as a survey is set up; the advanced ones keep their tested defaults.")
+    groups = add_planning_args(p)
+    add_scene_args(groups["scene"], targets_positional=True)
+    flight, safety, outputs, advanced = (groups[k] for k in ("flight", "safety", "exports", "advanced"))
+    flight.add_argument("--start", nargs=3, type=float, default=None, metavar=("X", "Y", "Z"),
+                        help="take-off and landing point, in the input models' coordinates (default: just outside "
+                             "the shot region, north-west; the summary prints it)")
+    latlon = flight.add_argument("--start-latlon", nargs="+", type=float, default=None, metavar="DEG",
+                        help="or: the take-off point in WGS84 degrees, optionally with a third value, its height "
+                             "above the ground in m (default 0; raised to the lowest flight height); needs a "
+                             "georeferenced scene")
+    latlon.shown_as = "LAT LON [H]"
+    flight.add_argument("--existing", default=None, metavar="PHOTOS_DIR|MISSION",
+                        help="photos already taken (a folder of photos with GPS tags, a route .json, or a mission: "
+                             "QGC .plan, .waypoints, Litchi .csv, DJI .kmz): their views count and the new flight "
+                             "takes only what they do not give")
+    outputs.add_argument("-o", "--output", required=True, metavar="ROUTE.json",
+                         help="the route file to write (exports, report and figures are named after it)")
+    outputs.add_argument("--report", default=None, metavar="REPORT.html", help="also write the HTML flight report")
+    outputs.add_argument("--plot", default=None, metavar="PREFIX", help="also write PNG figures PREFIX_*.png")
+    outputs.add_argument("--simulate", default=None, metavar="DIR",
+                         help="also render the photos and reconstruct them with COLMAP into DIR, with simulate's "
+                              "defaults (needs coverplan[sfm]; 'coverplan simulate ROUTE.json' takes its options)")
+    safety.add_argument("--force", action="store_true",
+                        help="overwrite an existing output file, and plan a GSD, security distance, altitude or "
+                             "flight time that looks like a unit slip (refused without it)")
+    safety.add_argument("--strict", action="store_true",
+                        help="refuse a security distance below the drone's position error bound plus 1 m; "
+                             "with --simulate, exit 1 unless the photos reconstruct")
+    advanced.add_argument("--no-evaluate", dest="evaluate", action="store_false",
+                          help="skip the independent evaluation of the planned route")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars or summary")
-    p.add_argument("-v", "--verbose", action="store_true", help="log each stage's time")
-    p.add_argument("--simulate", default=None, metavar="DIR",
-                   help="also render the photos and reconstruct them with COLMAP into DIR (needs coverplan[sfm])")
-    add_simulate_args(p)
+    p.add_argument("-v", "--verbose", action="store_true",
+                   help="the planner's internals in the summary, and each stage's time")
     p.set_defaults(func=cmd_plan)

@@ -19,6 +19,18 @@ def cmd_simulate(args) -> int:
     return simulate_route(route, scene, args.output, args)
 
 
+def simulate_defaults(args):
+    """``plan --simulate``'s options: simulate's defaults, with plan's --quiet, --verbose and --strict."""
+    import argparse
+
+    parser = argparse.ArgumentParser()
+    add_simulate_args(parser)
+    ns = parser.parse_args([])
+    for name in ("quiet", "verbose", "strict"):
+        setattr(ns, name, getattr(args, name, False))
+    return ns
+
+
 def simulate_route(route, scene, out_dir, args) -> int:
     """Render, reconstruct and judge; prints the table (or JSON), exit 1 under --strict when
     the flight would not reconstruct."""

@@ -280,6 +280,19 @@ def _stats(values) -> dict:
     return {"min": float(values.min()), "max": float(values.max()), "mean": float(values.mean())}
 
 
+def _gsd_achieved(ev: Evaluation) -> dict:
+    """The finest GSD each covered sample is photographed at (its nearest valid view): median,
+    95th percentile and coarsest, in m/px."""
+    _, point, distance = ev.pairs
+    best = np.full(len(ev.samples), np.inf)
+    np.minimum.at(best, point, distance)
+    best = best[ev.covered & ev.reachable & np.isfinite(best)]
+    if not len(best):
+        return {"median": None, "p95": None, "max": None}
+    gsd = ev.route.camera.gsd_at(best)
+    return {"median": float(np.median(gsd)), "p95": float(np.percentile(gsd, 95)), "max": float(gsd.max())}
+
+
 def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
     route, samples = ev.route, ev.samples
     area = samples.area
@@ -365,6 +378,7 @@ def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
         "sample_spacing_m": samples.spacing,
         "nt_imaged": _stats(ev.views[reach]),
         "d_image_m": _stats(ev.pairs[2]),
+        "gsd_achieved_m": _gsd_achieved(ev),
         "db_viewpoints_m": _stats(np.linalg.norm(np.diff(shot_pos, axis=0), axis=1)),
         "p_outliers": int(p_outliers.sum()),
         "shots_per_m2": len(shots) / total_area,

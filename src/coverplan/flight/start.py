@@ -30,6 +30,53 @@ def default_start(scene, limits: ViewLimits, margin: float) -> np.ndarray:
                         "keep-in zone" if limits.zones else "") + "; give one with --start X Y Z")
 
 
+def start_from_latlon(scene, latlon) -> np.ndarray:
+    """The take-off point given in WGS84 as a point of the scene's local frame.
+
+    Parameters
+    ----------
+    scene : Scene
+        A georeferenced scene (a CRS or a geodetic origin).
+    latlon : sequence of 2 or 3 float
+        Latitude and longitude in degrees, optionally the height above the ground there in m
+        (default 0: on the ground; ``check_start`` raises it to the lowest flight height).
+
+    Returns
+    -------
+    (3,) float
+        The point in the local frame, on or above the ground under it.
+
+    Raises
+    ------
+    ParameterError
+        Without a georeference, with other than 2 or 3 values, or with a latitude or longitude
+        out of range (given the wrong way round, most often).
+    """
+    from coverplan.geometry.geo import from_lonlat, has_georeference
+
+    values = [float(v) for v in latlon]
+    if len(values) not in (2, 3):
+        raise ParameterError(f"--start-latlon takes LAT LON [H], got {len(values)} values")
+    lat, lon, above = values + [0.0] * (3 - len(values))
+    if not (-90.0 <= lat <= 90.0 and -180.0 <= lon <= 180.0):
+        raise ParameterError(f"--start-latlon {lat:g} {lon:g}: latitude must be within +-90 and longitude within "
+                             "+-180 degrees (latitude first)")
+    if not has_georeference(scene.frame):
+        raise ParameterError("--start-latlon needs a georeferenced scene: a CityGML/CityJSON file, or "
+                             "--crs EPSG:XXXX or --geo-origin LAT LON H")
+    height = float(scene.geodetic_origin[2]) if scene.geodetic_origin else 0.0
+    local = from_lonlat(scene.frame, [lon], [lat], [height]).reshape(3)
+    lo, hi = scene.bounds("target")
+    away = float(np.linalg.norm(np.maximum(np.maximum(lo[:2] - local[:2], local[:2] - hi[:2]), 0.0)))
+    if away > MAX_START_DISTANCE_M:
+        from coverplan.geometry.geo import to_lonlat
+        lon0, lat0, _ = to_lonlat(scene.frame, ((lo + hi) / 2.0)[None])
+        raise ParameterError(f"--start-latlon {lat:g} {lon:g} is {away / 1000:,.0f} km from the target, which is at "
+                             f"{lat0[0]:.5f} {lon0[0]:.5f} (latitude first)")
+    local[2] = float(scene.ground_at(local[None, :2])[0]) + above
+    return local
+
+
 MAX_START_DISTANCE_M = 5_000.0  # farther than any battery flies: a coordinate mix-up
 
 

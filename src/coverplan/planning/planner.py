@@ -15,7 +15,9 @@ from dataclasses import replace
 from coverplan.equipment.camera import Camera
 from coverplan.equipment.drones import DroneProfile
 from coverplan.equipment.flighttime import FlightModel
+from coverplan.errors import ParameterError
 from coverplan.flight.route import Route
+from coverplan.flight.start import start_from_latlon
 from coverplan.planning.assembly import make_route
 from coverplan.planning.flying import fly
 from coverplan.planning.gaps import close_gaps
@@ -27,7 +29,7 @@ from coverplan.planning.setup import resolve
 from coverplan.progress import Progress
 
 
-def plan(scene, camera: Camera, settings: PlanSettings | None = None, *, start=None,
+def plan(scene, camera: Camera, settings: PlanSettings | None = None, *, start=None, start_latlon=None,
          drone: DroneProfile | None = None, flight_model: FlightModel | None = None,
          progress: Progress | None = None, **options) -> Route:
     """Plan one flight from ``start`` over shots covering the target and back.
@@ -45,6 +47,9 @@ def plan(scene, camera: Camera, settings: PlanSettings | None = None, *, start=N
         Take-off point in the scene's local frame (``scene.to_local`` moves a point of the
         input models there); None: a safe point beside the target. A start more than 5 km
         from the target is refused as a coordinate mix-up.
+    start_latlon : sequence of 2 or 3 float, optional
+        Or the take-off point as latitude, longitude (degrees) and optionally its height above
+        the ground (m) in a georeferenced scene (``flight.start.start_from_latlon``).
     drone : DroneProfile, optional
         Gimbal range, flight-time model, usable battery minutes and pose error (the margin).
     flight_model : FlightModel, optional
@@ -61,6 +66,10 @@ def plan(scene, camera: Camera, settings: PlanSettings | None = None, *, start=N
     t0 = time.perf_counter()
     progress = progress or Progress()
     settings = PlanSettings(**options) if settings is None else replace(settings, **options)
+    if start_latlon is not None:
+        if start is not None:
+            raise ParameterError("give the start point once: start or start_latlon")
+        start = start_from_latlon(scene, start_latlon)
     setup = resolve(scene, camera, settings, drone, flight_model, start)
     with ThreadPoolExecutor(max_workers=1) as pool:  # work for later stages, on the other core
         problem = build_problem(scene, setup, progress, pool)
