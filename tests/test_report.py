@@ -27,9 +27,10 @@ def planned_house():
 
 
 def open_report(browser, path) -> None:
-    """Load the report in ``browser`` and wait until its viewer says it is ready."""
+    """Load the report in ``browser`` and wait until its viewer says it is ready (software WebGL
+    beside the other tests on two busy cores can take many seconds)."""
     browser.get(path.as_uri())
-    for _ in range(200):
+    for _ in range(1200):
         if browser.execute_script("return window.reportReady === true"):
             break
         time.sleep(0.05)

@@ -10,6 +10,7 @@ from coverplan.equipment.drones import get_drone
 from coverplan.equipment.flighttime import FlightModel
 from coverplan.errors import ParameterError
 from coverplan.flight.missions import mission_to_route
+from coverplan.flight.route import Route
 from coverplan.flight.tour import DEFAULT_LANE_STEPS, DEFAULT_REAIM_STEPS, DEFAULT_REVERSAL_STEPS
 from coverplan.io import read_mission
 from coverplan.io.load import load_scene
@@ -20,8 +21,20 @@ from coverplan.shots.reconstructability import LINK_TESTS, MatchRule
 from coverplan.world.pointcloud import parse_classes
 
 
+class Formatter(argparse.HelpFormatter):
+    """argparse's help, where an option may show its values as it takes them (``shown_as``:
+    "LAT LON [H]" for two or three numbers, which ``nargs`` cannot say)."""
+
+    def _format_args(self, action, default_metavar):
+        return getattr(action, "shown_as", None) or super()._format_args(action, default_metavar)
+
+
 class Parser(argparse.ArgumentParser):
     """argparse with one-line errors and exit status 2."""
+
+    def __init__(self, *args, **kwargs):
+        kwargs.setdefault("formatter_class", Formatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message):
         sys.stderr.write(f"{self.prog}: error: {message} (see {self.prog} --help)\n")
@@ -88,9 +101,11 @@ SCENE_OPTIONS = ("obstacles", "units", "ground", "terrain", "target_names", "up_
                  "obstacle_points", "point_classes")
 
 
-def scene_for_route(args, route=None):
-    """The scene given with --target, else the one the route file ``args.route`` records
-    (``route``: that file, loaded; None: a mission from another app, which records none)."""
+def scene_for_route(args, route=None, path=None):
+    """The scene given with --target, else the one the route file ``path`` (default
+    ``args.route``) records (``route``: that file, loaded; None: a mission from another app,
+    which records none)."""
+    path = args.route if path is None else path
     if args.targets:
         return scene_from_args(args)
     given = [name for name in SCENE_OPTIONS if getattr(args, name, None) not in (None, [])]
@@ -101,9 +116,47 @@ def scene_for_route(args, route=None):
     if not record:
         what = "records no scene (planned from a mesh in memory, or by an older coverplan)" if route is not None \
             else "is a mission from another app"
-        raise ParameterError(f"{args.route} {what}: give the scene with --target")
+        raise ParameterError(f"{path} {what}: give the scene with --target")
     from coverplan.io.load import scene_from_record
-    return scene_from_record(record, args.route)
+    return scene_from_record(record, path)
+
+
+def flight_paths(given: list[str]) -> list[str]:
+    """The flight files named, with each pattern (``*.kmz``, ``house.f?.plan``) expanded, in
+    natural order (f2 before f10)."""
+    import glob
+    import re
+    from pathlib import Path
+
+    def natural(name):
+        return [int(t) if t.isdigit() else t for t in re.split(r"(\d+)", name)]
+
+    out = []
+    for item in given:
+        if glob.has_magic(item) and not Path(item).exists():
+            found = sorted(glob.glob(item), key=natural)
+            if not found:
+                raise ParameterError(f"{item}: matches no file")
+            out += found
+        else:
+            out.append(item)
+    return out
+
+
+def flights_and_scene(args):
+    """The route ``args.route`` names (route files and missions from other apps, one or several:
+    battery flights judged together) and its scene: ``--target``, else the first route file's."""
+    from coverplan.flight.route import join_flights
+
+    paths = flight_paths(args.route)
+    plans = [p for p in paths if p.lower().endswith(".json")]
+    if plans and len(plans) == len(paths) and (args.gsd is not None or args.security is not None):
+        raise ParameterError("a route file carries its own camera, GSD and security distance; "
+                             "--camera/--gsd/--security are for missions from other apps")
+    loaded = {p: Route.load(p) for p in plans}
+    scene = scene_for_route(args, loaded[plans[0]], plans[0]) if plans else scene_for_route(args, None, paths[0])
+    routes = [loaded[p] if p in loaded else mission_route(args, scene, p) for p in paths]
+    return join_flights(routes, paths), scene
 
 
 def camera_from_args(args) -> Camera:
@@ -146,18 +199,34 @@ def export_options(args) -> dict:
             "wpml_heights": args.wpml_heights}
 
 
-def mission_route(args, scene):
-    """A QGroundControl / Mission Planner / Litchi mission as a route in the scene's frame."""
+def mission_route(args, scene, path=None):
+    """A QGroundControl / Mission Planner / Litchi / WPML mission (``path``, default
+    ``args.route``) as a route in the scene's frame."""
+    path = args.route if path is None else path
     missing = [flag for flag, v in (("--gsd", args.gsd), ("--security", args.security)) if v is None]
     if missing or not (args.camera or args.sensor_mm):
         need = missing + ([] if (args.camera or args.sensor_mm) else ["--camera"])
-        raise ParameterError(f"{args.route} is a mission from another app: give {', '.join(need)} "
+        raise ParameterError(f"{path} is a mission from another app: give {', '.join(need)} "
                              "(the camera it flies, the GSD and security distance to judge it by)")
-    route = mission_to_route(read_mission(args.route), scene, camera_from_args(args), check_positive("--gsd", args.gsd),
+    route = mission_to_route(read_mission(path), scene, camera_from_args(args), check_positive("--gsd", args.gsd),
                              check_positive("--security", args.security))
     for note in route.extra["notes"]:  # what the file left open, and how it was read
         print(f"coverplan: {note}", file=sys.stderr)
     return route
+
+
+def add_mission_args(p):
+    """The camera, GSD and security distance a mission from another app is judged by."""
+    add_camera_args(p)
+    p.add_argument("--gsd", type=float, default=None, metavar="M_PER_PX",
+                   help="for missions: the GSD to judge the photos by")
+    p.add_argument("--security", type=float, default=None, metavar="M",
+                   help="for missions: the security distance to judge the flight by")
+
+
+FLIGHTS_HELP = ("a coverplan route (.json) or a mission: QGroundControl .plan, QGC WPL .waypoints, Litchi .csv, DJI "
+                "WPML .kmz; several (or a pattern such as 'house.f*.kmz') are judged together as one plan's battery "
+                "flights (docs/evaluate.md)")
 
 
 def add_camera_args(p):
@@ -263,115 +332,129 @@ def add_simulate_args(p):
     p.add_argument("--threads", type=int, default=-1, metavar="N", help="threads for SfM (default: all cores)")
 
 
-def add_planning_args(p):
-    """The camera and planning flags ``plan`` and ``batch`` share."""
-    add_camera_args(p)
-    p.add_argument("--gsd", type=float, required=True, metavar="M_PER_PX", help="target ground sampling distance")
-    p.add_argument("--security", type=float, required=True, metavar="M",
+GROUPS = (("scene", "scene"), ("camera", "camera and drone"), ("quality", "quality"),
+          ("safety", "safety and airspace"), ("flight", "flight"), ("exports", "outputs and exports"),
+          ("advanced", "advanced: view selection and tour (the defaults are the tested ones)"))
+
+
+def option_groups(p) -> dict:
+    """The help's groups of planning options, in the order a surveyor sets them."""
+    return {key: p.add_argument_group(title) for key, title in GROUPS}
+
+
+def add_planning_args(p) -> dict:
+    """The camera and planning flags ``plan`` and ``batch`` share, in the help's groups
+    (``option_groups``); returns the groups, for the command's own flags."""
+    groups = option_groups(p)
+    c, q, s, f, x, a = (groups[k] for k in ("camera", "quality", "safety", "flight", "exports", "advanced"))
+    add_camera_args(c)
+    q.add_argument("--gsd", type=float, required=True, metavar="M_PER_PX", help="target ground sampling distance")
+    s.add_argument("--security", type=float, required=True, metavar="M",
                    help="security distance to keep from every mesh")
-    p.add_argument("--rule", choices=["sfm", "thesis"], default="sfm",
+    q.add_argument("--rule", choices=["sfm", "thesis"], default="sfm",
                    help="sfm (default): plan for a reconstruction (docs/reconstruction.md); "
                         "thesis: 2 views 5 deg apart, the thesis's rule, for comparison")
-    p.add_argument("--margin", choices=["field", "none"], default="field",
+    s.add_argument("--margin", choices=["field", "none"], default="field",
                    help="field (default): judge frames and view-pair angles with the drone's own position, heading "
                         "and gimbal error (docs/reconstruction.md); none: the rules as given")
-    p.add_argument("--fly", choices=["through", "stop"], default="through",
+    f.add_argument("--fly", choices=["through", "stop"], default="through",
                    help="through (default): take photos in passing where the turn, motion blur, the photo interval "
                         "and the heading and gimbal turns allow it, and stop elsewhere (docs/flights.md); "
                         "stop: stop at every waypoint. The photos are the same")
-    p.add_argument("--view-tilts", choices=["varied", "corners", "square"], default="varied",
+    a.add_argument("--view-tilts", choices=["varied", "corners", "square"], default="varied",
                    help="varied (default): candidate views square-on to the surface and tilted off it; corners: "
                         "tilted only where the façade rings turn a corner; square: square-on only, so photos "
                         "along a wall share one heading (docs/flights.md, \"Lanes\")")
-    p.add_argument("--edge-views", choices=["on", "off"], default=None,
+    a.add_argument("--edge-views", choices=["on", "off"], default=None,
                    help="on (default under --rule sfm): a photo from the bisector of the two faces every frame width "
                         "along each edge where the surface turns (a corner, an eave), seeing both faces alike "
                         "(docs/reconstruction.md, \"Edge views\"); off (default under --rule thesis): without them")
-    p.add_argument("--reversal-cost", type=float, default=DEFAULT_REVERSAL_STEPS, metavar="STEPS",
+    a.add_argument("--reversal-cost", type=float, default=DEFAULT_REVERSAL_STEPS, metavar="STEPS",
                    help=f"how much path the tour gives up to avoid one reversal (a photo where the flight turns back "
                         f"by more than 90 deg and must stop), in typical steps between neighbouring photos (default "
                         f"{DEFAULT_REVERSAL_STEPS:g}; 0: the shortest tour; docs/flights.md, \"The order\")")
-    p.add_argument("--reaim-cost", type=float, default=DEFAULT_REAIM_STEPS, metavar="STEPS",
+    a.add_argument("--reaim-cost", type=float, default=DEFAULT_REAIM_STEPS, metavar="STEPS",
                    help=f"how much path the tour gives up to fly next to each other two photos whose camera need "
                         f"not turn between them (heading within 10 deg, pitch within 5 deg), in typical steps "
                         f"(default {DEFAULT_REAIM_STEPS:g}; 0: no preference)")
-    p.add_argument("--selection", choices=list(SELECTIONS), default="shots",
+    f.add_argument("--selection", choices=list(SELECTIONS), default="shots",
                    help="shots (default): photos chosen one by one from every candidate view; lanes: whole runs of "
                         "photos along façades and over roofs first, single shots only where no lane sees "
                         "(docs/flights.md, \"Lanes\")")
-    p.add_argument("--forward-overlap", type=float, default=0.7, metavar="SHARE",
+    a.add_argument("--forward-overlap", type=float, default=0.7, metavar="SHARE",
                    help="lanes: share of the frame consecutive photos of a lane share (default 0.7)")
-    p.add_argument("--side-overlap", type=float, default=0.4, metavar="SHARE",
+    a.add_argument("--side-overlap", type=float, default=0.4, metavar="SHARE",
                    help="lanes: share of the frame neighbouring lanes (bands, roof strips) share (default 0.4)")
-    p.add_argument("--lane-cost", type=float, default=DEFAULT_LANE_STEPS, metavar="STEPS",
+    a.add_argument("--lane-cost", type=float, default=DEFAULT_LANE_STEPS, metavar="STEPS",
                    help=f"lanes: how much path the tour gives up to fly each lane end to end, in typical steps "
                         f"(default {DEFAULT_LANE_STEPS:g})")
-    p.add_argument("--min-views", type=int, default=None, metavar="N",
+    q.add_argument("--min-views", type=int, default=None, metavar="N",
                    help="views per surface point (default 3; thesis rule 2)")
-    p.add_argument("--min-triangulation-deg", type=float, default=5.0, metavar="DEG",
+    q.add_argument("--min-triangulation-deg", type=float, default=5.0, metavar="DEG",
                    help="narrowest angle between two views of a point that triangulates it (default 5)")
-    p.add_argument("--max-pair-deg", type=float, default=None, metavar="DEG",
+    a.add_argument("--max-pair-deg", type=float, default=None, metavar="DEG",
                    help="sfm rule: widest view pair SfM is trusted to match (default 35)")
-    p.add_argument("--min-overlap", type=float, default=None, metavar="FRACTION",
+    a.add_argument("--min-overlap", type=float, default=None, metavar="FRACTION",
                    help="sfm rule: surface two linked photos share (default 0.3)")
-    p.add_argument("--min-neighbours", type=int, default=None, metavar="N",
+    a.add_argument("--min-neighbours", type=int, default=None, metavar="N",
                    help="sfm rule: linked photos every photo needs (default 2)")
-    p.add_argument("--links", choices=["braced", "one-piece"], default=None,
+    a.add_argument("--links", choices=["braced", "one-piece"], default=None,
                    help="sfm rule: braced (default): no photo is the only link between two groups of photos; "
                         "one-piece: the photos only need to link into one set")
-    p.add_argument("--link-test", choices=list(LINK_TESTS), default=None,
+    a.add_argument("--link-test", choices=list(LINK_TESTS), default=None,
                    help="sfm rule: how two photos' rays to the surface both see are judged: centroid (default): "
                         "at the centroid of all of it; faces: face by face, each within 60 deg of both photos "
                         "(links across a corner count only the faces both photos see squarely); samples: point "
                         "by point, and the plan is chosen lean (fewer photos; experimental: three field draws on the "
                         "gabled house and the chapel only, docs/reconstruction.md)")
-    p.add_argument("--sharp-views", type=int, default=None, metavar="N",
+    a.add_argument("--sharp-views", type=int, default=None, metavar="N",
                    help="sfm rule: views per surface point within 35 deg of its normal, or as near as any "
                         "safe viewpoint gets plus 5 deg (default 1; 0: none asked)")
-    p.add_argument("--framed-views", type=int, default=None, metavar="N",
+    a.add_argument("--framed-views", type=int, default=None, metavar="N",
                    help="sfm rule: views per surface point whose frame its face fills (25 %%, or most of the best "
                         "any safe viewpoint gives), within 50 deg of its normal; towers and spires get views from "
                         "closer in (default 0: none asked; try 2 for towers and spires)")
-    p.add_argument("--max-incidence-deg", type=float, default=70.0, metavar="DEG",
+    q.add_argument("--max-incidence-deg", type=float, default=70.0, metavar="DEG",
                    help="widest angle between a view and the surface normal that counts as imaging it (default 70)")
-    p.add_argument("--min-altitude", type=float, default=None, metavar="M",
+    s.add_argument("--min-altitude", type=float, default=None, metavar="M",
                    help="lowest flight height above the ground (default: the security distance)")
-    p.add_argument("--max-altitude", type=parse_ceiling, default=DEFAULT_CEILING_M, metavar="M|none",
+    s.add_argument("--max-altitude", type=parse_ceiling, default=DEFAULT_CEILING_M, metavar="M|none",
                    help=f"altitude ceiling above the ground under the drone (default {DEFAULT_CEILING_M:g} m, the EU, "
                         "UK and US limit; 'none': no ceiling)")
-    add_zone_args(p)
-    p.add_argument("--drone", default=None, metavar="NAME",
+    add_zone_args(s)
+    c.add_argument("--drone", default=None, metavar="NAME",
                    help="drone profile: camera, gimbal range, speeds, battery (see 'coverplan drones')")
-    p.add_argument("--max-flight-min", type=float, default=None, metavar="MIN",
+    f.add_argument("--max-flight-min", type=float, default=None, metavar="MIN",
                    help="split the tour into flights of at most MIN minutes each, from the start back to it "
                         "(default: the drone's usable flight time; without --drone one flight)")
-    p.add_argument("--max-mission-items", type=int, default=None, metavar="N",
+    f.add_argument("--max-mission-items", type=int, default=None, metavar="N",
                    help="split the tour so that each flight's QGC plan / WPL file has at most N mission items "
                         "(default: 500, PX4's limit, when plan exports a .plan for PX4; else no limit)")
-    p.add_argument("--gimbal-min-deg", type=float, default=None, metavar="DEG",
+    c.add_argument("--gimbal-min-deg", type=float, default=None, metavar="DEG",
                    help="lowest gimbal pitch in degrees (default: the drone's, else -90)")
-    p.add_argument("--gimbal-max-deg", type=float, default=None, metavar="DEG",
+    c.add_argument("--gimbal-max-deg", type=float, default=None, metavar="DEG",
                    help="highest gimbal pitch in degrees (default: the drone's, else 30)")
-    p.add_argument("--spacing", type=float, default=None, metavar="M",
+    a.add_argument("--spacing", type=float, default=None, metavar="M",
                    help="surface sample spacing (default d_opt/8, coarser for huge targets)")
-    p.add_argument("--speed", type=float, default=None, metavar="M_PER_S",
+    f.add_argument("--speed", type=float, default=None, metavar="M_PER_S",
                    help="cruise speed between waypoints (default: the drone's, else 5)")
-    p.add_argument("--shot-seconds", type=float, default=None, metavar="S",
+    f.add_argument("--shot-seconds", type=float, default=None, metavar="S",
                    help="hover time per photo in seconds (default: the drone's photo interval, at least 1 s)")
-    p.add_argument("--lp-time-limit", type=float, default=LP_TIME_LIMIT_S, metavar="S",
+    a.add_argument("--lp-time-limit", type=float, default=LP_TIME_LIMIT_S, metavar="S",
                    help=f"time for the LP that guides view selection and bounds it (default {LP_TIME_LIMIT_S:g}; "
                         "0: plain greedy; an LP that runs out of time is dropped, with a warning)")
-    p.add_argument("--only", nargs="+", default=None, metavar="CLASS",
+    q.add_argument("--only", nargs="+", default=None, metavar="CLASS",
                    choices=["facade", "roof", "terrace", "opposed_terrace"],
                    help="cover only these surfaces (facade, roof, terrace, opposed_terrace)")
-    p.add_argument("--max-memory-gb", type=float, default=None, metavar="GB",
+    a.add_argument("--max-memory-gb", type=float, default=None, metavar="GB",
                    help="refuse plans estimated to need more (default: 80%% of this machine's RAM)")
-    p.add_argument("--merge-obstacles-within", type=float, default=None, metavar="M",
+    a.add_argument("--merge-obstacles-within", type=float, default=None, metavar="M",
                    help="unite obstacles closer than M to the target with it (thesis Appendix C)")
-    p.add_argument("--export", default=None, metavar="FORMATS",
+    x.add_argument("--export", default=None, metavar="FORMATS",
                    help="also write flight files beside the route: qgc,wpl,litchi,wpml,kml,geojson,csv "
                         "(one per battery flight: NAME.f1.plan, ...)")
-    add_export_args(p)
+    add_export_args(x)
+    return groups
 
 
 def add_zone_args(p, judged: bool = False):

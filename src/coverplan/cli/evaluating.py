@@ -6,18 +6,17 @@ import json
 import sys
 
 from coverplan.cli.args import (
+    FLIGHTS_HELP,
     ROUTE_CEILING,
-    add_camera_args,
+    add_mission_args,
     add_scene_args,
     add_zone_args,
-    mission_route,
+    flight_paths,
+    flights_and_scene,
     parse_ceiling,
-    scene_for_route,
 )
 from coverplan.equipment.camera import check_positive
-from coverplan.errors import ParameterError
 from coverplan.evaluation import evaluate
-from coverplan.flight.route import Route
 from coverplan.io.zones import read_zones
 from coverplan.progress import Progress
 
@@ -25,15 +24,9 @@ from coverplan.progress import Progress
 def cmd_evaluate(args) -> int:
     if args.spacing is not None:
         check_positive("--spacing", args.spacing)
-    if args.route.lower().endswith(".json"):
-        if args.gsd is not None or args.security is not None:
-            raise ParameterError("a route file carries its own camera, GSD and security distance; "
-                                 "--camera/--gsd/--security are for missions from other apps")
-        route = Route.load(args.route)
-        scene = scene_for_route(args, route)
-    else:
-        scene = scene_for_route(args)
-        route = mission_route(args, scene)
+    route, scene = flights_and_scene(args)
+    if len(flight_paths(args.route)) > 1:
+        print(f"coverplan: {route.n_flights} flights judged together, in the order given", file=sys.stderr)
     if args.max_altitude is not ROUTE_CEILING:  # judged against a ceiling given here instead of the route's own
         route.params["max_altitude_m"] = args.max_altitude
     if args.keep_out or args.keep_in:  # judged against these zones instead of the route's own
@@ -60,15 +53,9 @@ def cmd_evaluate(args) -> int:
 def register(sub) -> None:
     """Add the subcommand to ``sub`` (argparse subparsers)."""
     p = sub.add_parser("evaluate", help="check a route's or another app's mission's coverage and safety")
-    p.add_argument("route", metavar="ROUTE",
-                   help="a coverplan route (.json) or a mission: QGroundControl .plan, QGC WPL .waypoints, "
-                        "Litchi .csv, DJI WPML .kmz (docs/evaluate.md)")
+    p.add_argument("route", nargs="+", metavar="ROUTE", help=FLIGHTS_HELP)
     add_scene_args(p, targets_positional=False, recorded=True)
-    add_camera_args(p)
-    p.add_argument("--gsd", type=float, default=None, metavar="M_PER_PX",
-                   help="for missions: the GSD to judge the photos by")
-    p.add_argument("--security", type=float, default=None, metavar="M",
-                   help="for missions: the security distance to judge the flight by")
+    add_mission_args(p)
     p.add_argument("--spacing", type=float, default=None, metavar="M",
                    help="surface sample spacing in metres (default 0.25, with a seed the planner does not use)")
     p.add_argument("--max-altitude", type=parse_ceiling, default=ROUTE_CEILING, metavar="M|none",

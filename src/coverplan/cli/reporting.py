@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-from coverplan.cli.args import add_scene_args, scene_for_route
+from coverplan.cli.args import FLIGHTS_HELP, add_mission_args, add_scene_args, flights_and_scene
 from coverplan.errors import ParameterError
 from coverplan.evaluation import evaluate
-from coverplan.flight.route import Route
 from coverplan.job import write_pictures
 from coverplan.progress import Progress
 from coverplan.sfm.simulate import Simulation
@@ -14,8 +13,7 @@ from coverplan.sfm.simulate import Simulation
 def cmd_report(args) -> int:
     if not args.report and not args.plot:
         raise ParameterError("give -o REPORT.html and/or --plot PREFIX")
-    route = Route.load(args.route)
-    scene = scene_for_route(args, route)
+    route, scene = flights_and_scene(args)
     progress = Progress(bars=not args.quiet, verbose=args.verbose)
     with progress.stage("evaluate"):
         ev = evaluate(route, scene, spacing=args.spacing)
@@ -36,8 +34,9 @@ def register(sub) -> None:
     for name, helptext in (("report", "write the HTML flight report (and/or PNG figures) of a route"),
                            ("plot", "write PNG figures (and/or the HTML report) of a route")):
         p = sub.add_parser(name, help=helptext)
-        p.add_argument("route", metavar="ROUTE.json", help="a route written by coverplan plan")
+        p.add_argument("route", nargs="+", metavar="ROUTE", help=FLIGHTS_HELP)
         add_scene_args(p, targets_positional=False, recorded=True)
+        add_mission_args(p)
         p.add_argument("--spacing", type=float, default=None, metavar="M",
                        help="surface sample spacing in metres (default 0.25)")
         p.add_argument("--simulation", default=None, metavar="SIMULATION.json",

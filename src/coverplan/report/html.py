@@ -18,10 +18,11 @@ from coverplan.equipment.flighttime import FlightModel
 from coverplan.evaluation import evaluate
 from coverplan.flight.battery import flight_table
 from coverplan.io.footprints import extrude
-from coverplan.report.frame import focus_bounds
+from coverplan.report.frame import display_mesh, focus_bounds
+from coverplan.report.plan_view import flight_colour, plan_view_svg
+from coverplan.report.takeoff import takeoff_point, takeoff_text
 from coverplan.world.zones import Zones
 
-MAX_DISPLAY_FACES = 300_000
 MAX_TERRAIN_CELLS = 40_000
 LEG_CODES = {"initial": 0, "coverage": 1, "final": 2}
 
@@ -32,23 +33,6 @@ def _b64(array, dtype) -> str:
 
 def _asset(name: str) -> str:
     return resources.files("coverplan.report").joinpath("assets", name).read_text(encoding="utf-8")
-
-
-def display_mesh(mesh, max_faces: int = MAX_DISPLAY_FACES):
-    """Vertices and faces for display; very large meshes are thinned by vertex clustering."""
-    vertices, faces = np.asarray(mesh.vertices), np.asarray(mesh.faces)
-    if len(faces) <= max_faces:
-        return vertices, faces
-    cell = np.sqrt(mesh.area / max_faces) * 1.2
-    key = np.floor(vertices / cell).astype(np.int64)
-    _, cluster, counts = np.unique(key, axis=0, return_inverse=True, return_counts=True)
-    cluster = cluster.ravel()
-    merged = np.zeros((len(counts), 3))
-    np.add.at(merged, cluster, vertices)
-    merged /= counts[:, None]
-    f = cluster[faces]
-    keep = (f[:, 0] != f[:, 1]) & (f[:, 1] != f[:, 2]) & (f[:, 0] != f[:, 2])
-    return merged, f[keep]
 
 
 def report_data(route, scene, evaluation, simulation=None) -> dict:
@@ -86,7 +70,9 @@ def report_data(route, scene, evaluation, simulation=None) -> dict:
                     "gsd": _b64(gsd, np.float32), "status": _b64(status, np.uint8)},
         "waypoints": {"positions": _b64(route.positions, np.float32), "shot": _b64(route.shot, np.uint8),
                       "heading": _b64(route.heading_deg, np.float32), "pitch": _b64(route.pitch_deg, np.float32),
-                      "leg": _b64([LEG_CODES[x] for x in route.leg], np.uint8)},
+                      "leg": _b64([LEG_CODES[x] for x in route.leg], np.uint8),
+                      "flight": _b64(route.flight, np.uint8)},
+        "flight_colours": [flight_colour(k) for k in range(1, route.n_flights + 1)],
         "camera": {"hfov_deg": route.camera.hfov_deg, "vfov_deg": route.camera.vfov_deg},
         "params": {k: v for k, v in route.params.items() if isinstance(v, (int, float))},
         "centre": ((lo + hi) / 2).tolist(),
@@ -160,20 +146,55 @@ def road_map_rows(route) -> str:
 
 
 def flights_section(route) -> str:
-    """Each battery flight: time by the flight-time model, photos, path, share of the limit."""
+    """Each battery flight in its colour: minutes flown through (as the WPML and QGroundControl
+    exports fly) and stopping at every photo, photos, path, share of the limit."""
     model = FlightModel(**(route.metrics or {}).get("flight_model", {}))
     limit = route.params.get("max_flight_min")
+    through = (route.metrics or {}).get("fly_through") if route.flies_through else None
+    table = flight_table(route, model, limit)
+    passing = (through or {}).get("flight_minutes") or [None] * len(table)
     rows = []
-    for f in flight_table(route, model, limit):
+    for f, flown in zip(table, passing):
         share = f"{f['limit_share_pct']:.0f} %" if f["limit_share_pct"] is not None else "no limit set"
-        rows.append(f"<tr><td>{f['flight']}</td><td>{f['minutes']:.1f}</td><td>{f['shots']}</td>"
+        swatch = f'<span class=swatch style="background:{flight_colour(f["flight"])}"></span>'
+        rows.append(f"<tr><td>{swatch}{f['flight']}</td><td>{'–' if flown is None else f'{flown:.1f}'}</td>"
+                    f"<td>{f['minutes']:.1f}</td><td>{f['shots']}</td>"
                     f"<td>{f['waypoints']}</td><td>{f['path_m']:,.0f}</td><td>{share}</td></tr>")
     drone = route.params.get("drone")
-    how = (f"{model.cruise_speed:g} m/s between waypoints, stopping at each, {model.photo_seconds:g} s per photo"
+    how = (f"{model.cruise_speed:g} m/s between waypoints, {model.photo_seconds:g} s per photo when stopping"
            + (f", drone {html.escape(drone)}" if drone else "") + (f"; limit {limit:g} min per flight" if limit else ""))
-    return (f"<p>Minutes by the flight-time model ({how}; docs/flights.md). Every flight takes off from the "
-            f"start point and lands there.</p><table><tr><th>flight</th><th>min</th><th>shots</th><th>waypoints</th>"
-            f"<th>path m</th><th>of the limit</th></tr>{''.join(rows)}</table>")
+    return (f"<p>Minutes by the flight-time model ({how}; docs/flights.md): flown through, taking photos in "
+            "passing where the route allows it, and stopping at every photo (as Litchi flies). Every flight takes "
+            "off from the start point and lands there.</p><table class=flights><tr><th>flight</th>"
+            "<th>min flown through</th><th>min stopping</th><th>photos</th><th>waypoints</th><th>path m</th>"
+            f"<th>of the limit</th></tr>{''.join(rows)}</table>")
+
+
+def path_legend(route) -> str:
+    """The path's colours: by leg for one flight, by battery flight for several."""
+    if route.n_flights > 1:
+        return "flights" + "".join(f'<span style="background:{flight_colour(k)}"></span>{k}'
+                                   for k in range(1, route.n_flights + 1))
+    return ('path<span style="background:#2b6cb0"></span>initial<span style="background:#dd6b20"></span>coverage'
+            '<span style="background:#805ad5"></span>final')
+
+
+def headline(route, evaluation) -> str:
+    """The report's first lines: photos, flights and both times, coverage, clearance, take-off."""
+    m = evaluation.metrics
+    minutes = [f["minutes"] for f in (route.metrics or {}).get("flights") or []]
+    through = (route.metrics or {}).get("fly_through") if route.flies_through else None
+    times = (f"{through['minutes']:.1f} min flown through ({sum(minutes):.1f} min stopping at every photo)"
+             if through else f"{sum(minutes):.1f} min" if minutes else "")
+    flights = f"{route.n_flights} battery flights" if route.n_flights > 1 else "1 flight"
+    point = takeoff_point(route)
+    where = html.escape(takeoff_text(point))
+    if point["map"]:
+        where += f' — <a class=map-link href="{html.escape(point["map"])}">open on a map</a>'
+    return (f"<p>{m['shots']} photos, {flights}{', ' + times if times else ''}, {route.path_length:,.0f} m of "
+            f"flight; {m['coverage_pct']:.2f} % of the reachable surface covered, closest approach "
+            f"{m['min_clearance_m']:.2f} m{'' if evaluation.safe else ' — <b>UNSAFE</b>'}</p>"
+            f"<p class=takeoff>take-off: {where}</p>")
 
 
 def uncovered_rows(evaluation) -> str:
@@ -246,10 +267,7 @@ def render_html(route, scene, evaluation, title: str = "coverplan flight report"
 <script type="importmap">{json.dumps(import_map)}</script>
 </head><body>
 <header><h1>{html.escape(title)}</h1>
-<p>{evaluation.metrics['shots']} shots, {route.path_length:,.0f} m of flight,
-{evaluation.metrics['coverage_pct']:.2f} % of the reachable surface covered,
-minimum clearance {evaluation.metrics['min_clearance_m']:.2f} m
-{'' if evaluation.safe else '— <b>UNSAFE</b>'}</p></header>
+{headline(route, evaluation)}</header>
 <main>
 <div id="view"></div>
 <div class="controls">
@@ -270,8 +288,7 @@ minimum clearance {evaluation.metrics['min_clearance_m']:.2f} m
  <div class=legend>views<span style="background:#e53e3e"></span>0<span style="background:#ed8936"></span>1
   <span style="background:#9ae6b4"></span>2<span style="background:#2f855a"></span>3+
   <span style="background:#d53f8c"></span>missed<span style="background:#553c9a"></span>unreachable
-  &nbsp; path<span style="background:#2b6cb0"></span>initial<span style="background:#dd6b20"></span>coverage
-  <span style="background:#805ad5"></span>final
+  &nbsp; {path_legend(route)}
   {'&nbsp; shots<span style="background:#1a202c"></span>registered<span style="background:#e53e3e"></span>lost by SfM' if simulation is not None else ''}</div>
 </div>
 <div class=cols>
@@ -280,6 +297,8 @@ minimum clearance {evaluation.metrics['min_clearance_m']:.2f} m
 <section><h2>Not covered, and why</h2><table><tr><th class=l>reason</th><th>samples</th><th>m²</th><th>around</th></tr>
 {uncovered_rows(evaluation)}</table></section>
 <section><h2>Flights ({route.n_flights})</h2>{flights_section(route)}</section>
+<section class=wide><h2>Map</h2><p>The flight from above: each battery flight in its colour, its photos as dots,
+H the take-off point; north and the scale as drawn.</p>{plan_view_svg(route, scene)}</section>
 <section><h2>Reconstruction (simulated photos, COLMAP)</h2>{simulation_rows(simulation)}</section>
 </div>
 <section><h2>Road map ({len(route)} waypoints)</h2>

@@ -118,17 +118,21 @@ missedGeom.setAttribute('position', new THREE.Float32BufferAttribute(missed, 3))
 missedGeom.setAttribute('color', new THREE.Float32BufferAttribute(missedColours, 3));
 addLayer('uncovered', new THREE.Points(missedGeom, new THREE.PointsMaterial({ size: pointSize * 2.2, vertexColors: true })));
 
-// Flight path coloured by leg.
+// Flight path coloured by leg, or by battery flight when there are several.
 const wp = decode(data.waypoints.positions, Float32Array);
 const leg = decode(data.waypoints.leg, Uint8Array);
+const flightOf = decode(data.waypoints.flight, Uint8Array);
+const FLIGHT_COLOURS = data.flight_colours.map((c) => new THREE.Color(c));
 const shot = decode(data.waypoints.shot, Uint8Array);
 const heading = decode(data.waypoints.heading, Float32Array);
 const pitch = decode(data.waypoints.pitch, Float32Array);
 const pathPos = [];
 const pathCol = [];
 for (let i = 0; i + 1 < leg.length; i++) {
+  if (flightOf[i] !== flightOf[i + 1]) continue;  // one flight lands, the next takes off
   pathPos.push(wp[3 * i], wp[3 * i + 1], wp[3 * i + 2], wp[3 * i + 3], wp[3 * i + 4], wp[3 * i + 5]);
-  const col = LEG_COLOURS[leg[i] === 0 ? 0 : (leg[i + 1] === 2 ? 2 : 1)];
+  const col = FLIGHT_COLOURS.length > 1 ? FLIGHT_COLOURS[flightOf[i] - 1]
+    : LEG_COLOURS[leg[i] === 0 ? 0 : (leg[i + 1] === 2 ? 2 : 1)];
   col.toArray(pathCol, pathCol.length);
   col.toArray(pathCol, pathCol.length);
 }
