@@ -386,3 +386,35 @@ def test_colmap_option_overrides_reach_the_options_and_refuse_unknown_paths():
         set_options(options, {"mapper.no_such_option": 1})
     with pytest.raises(ParameterError, match="ba_num_iterations"):
         set_options(options, {"mapper.ba_num_iterations": "many"})
+
+
+def test_a_newcomer_simulates_from_the_route_alone(tmp_path):
+    """The README's simulate: `simulate ROUTE -o DIR --quick` on a route with no scene options,
+    its output a log file (not a terminal). The estimated time is the first line, progress comes
+    as lines with the time left, the table is COLMAP's (read back), and the README's block has
+    the same rows as this run."""
+    import re
+    import subprocess
+
+    from coverplan.cli import main
+    from tests.helpers import ROOT
+
+    route = tmp_path / "house.json"
+    assert main(["plan", str(MESHES / "gabled_house.obj"), "--drone", "m3e", "--gsd", "0.004", "--security", "3",
+                 "-o", str(route), "-q"]) == 0
+    done = subprocess.run(["coverplan", "simulate", str(route), "-o", str(tmp_path / "sim"), "--quick"],
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    err = [line for line in done.stderr.splitlines() if line.strip()]
+    assert re.match(r"coverplan: simulating \d+ photos, 1 draw of 640 px: about \d+ (s|min)", err[0]), err[0]
+    assert any(re.search(r"SfM features: \d+/\d+ photos? \(\d+ %\), .* left", line) for line in err) or \
+        any("SfM features: done in" in line for line in err), err
+    assert any("SfM matching: done in" in line for line in err), err
+    sim = Simulation.load(tmp_path / "sim" / "simulation.json")
+    models = sorted((tmp_path / "sim" / "colmap" / "sparse").iterdir())
+    best = max((pycolmap.Reconstruction(m) for m in models), key=lambda r: r.num_reg_images())
+    assert f"registered (largest model)    {best.num_reg_images()} " in done.stdout
+    assert sim.conditions == "field" and len(sim.draws) == 1
+    readme = subprocess.run([sys.executable, str(ROOT / "scripts" / "readme_examples.py"), "--check", "--only",
+                             "simulate"], capture_output=True, text=True, cwd=ROOT)
+    assert readme.returncode == 0, readme.stdout + readme.stderr

@@ -9,11 +9,17 @@ from contextlib import contextmanager
 
 
 class Progress:
-    """Reports long stages. Bars only when ``bars`` and the stream is a terminal."""
+    """Reports long stages. Bars only when ``bars`` and the stream is a terminal; with ``lines``
+    as well, a stream that is not a terminal (a log file, a CI job) gets a line per tenth of
+    each counted stage, with the time left."""
 
-    def __init__(self, bars: bool = False, verbose: bool = False, stream=None):
+    def __init__(self, bars: bool = False, verbose: bool = False, stream=None, lines: bool = False,
+                 line_period_s: float = 5.0):
         self.stream = stream or sys.stderr
-        self.bars = bars and hasattr(self.stream, "isatty") and self.stream.isatty()
+        terminal = hasattr(self.stream, "isatty") and self.stream.isatty()
+        self.bars = bars and terminal
+        self.lines = bars and lines and not terminal
+        self.line_period_s = line_period_s
         self.verbose = verbose
         self.timings: dict[str, float] = {}
 
@@ -26,6 +32,8 @@ class Progress:
             from tqdm import tqdm
             bar = tqdm(total=total, desc=name, unit=unit, file=self.stream, leave=False,
                        dynamic_ncols=True)
+        elif self.lines and total:
+            bar = LineBar(name, total, unit, self.stream, self.line_period_s)
         try:
             yield (bar.update if bar is not None else _ignore)
         finally:
@@ -39,6 +47,41 @@ class Progress:
     def note(self, text: str) -> None:
         if self.verbose:
             print(f"[coverplan] {text}", file=self.stream)
+
+
+class LineBar:
+    """A progress bar as lines: one at each tenth of ``total`` (at most one per ``period_s``),
+    with the count, the share and the time left at the rate so far, and one at the end."""
+
+    def __init__(self, name: str, total: float, unit: str, stream, period_s: float = 5.0):
+        self.name, self.total, self.unit, self.stream, self.period_s = name, float(total), unit, stream, period_s
+        self.done, self.start, self.last, self.shown = 0.0, time.perf_counter(), 0.0, 0
+
+    def update(self, n: float = 1) -> None:
+        self.done += n
+        tenth = int(10 * self.done / self.total) if self.total else 10
+        now = time.perf_counter() - self.start
+        if self.shown < tenth < 10 and now - self.last >= self.period_s:
+            self.shown, self.last = tenth, now
+            left = now * (self.total - self.done) / max(self.done, 1e-9)
+            print(f"[coverplan] {self.name}: {self.done:,.0f}/{self.total:,.0f} {self.unit} "
+                  f"({100 * self.done / self.total:.0f} %), {format_duration(left)} left",
+                  file=self.stream, flush=True)
+
+    def close(self) -> None:
+        print(f"[coverplan] {self.name}: done in {format_duration(time.perf_counter() - self.start)}",
+              file=self.stream, flush=True)
+
+
+def format_duration(seconds: float) -> str:
+    """Seconds as a person says them: "40 s", "3 min", "1 h 05 min"."""
+    seconds = max(float(seconds), 0.0)
+    if seconds < 90:
+        return f"{seconds:.0f} s"
+    minutes = seconds / 60.0
+    if minutes < 90:
+        return f"{minutes:.0f} min"
+    return f"{int(minutes // 60)} h {int(minutes % 60):02d} min"
 
 
 def _ignore(_n: int = 1) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 
@@ -14,15 +15,43 @@ from coverplan.sfm.simulate import simulate
 
 
 def cmd_simulate(args) -> int:
+    apply_quick(args)
     route = Route.load(args.route)
     scene = scene_for_route(args, route)
     return simulate_route(route, scene, args.output, args)
 
 
+QUICK = {"draws": 1, "photo_width": 640, "max_features": 4096, "neighbours": 20}
+
+
+def apply_quick(args) -> None:
+    """``--quick``: the options left at their defaults take the quick preset's values (one draw
+    of 640 px photos with 4,096 features each, 20 spatial neighbours)."""
+    if not getattr(args, "quick", False):
+        return
+    defaults = simulate_defaults(argparse.Namespace())
+    for name, value in QUICK.items():
+        if getattr(args, name) == getattr(defaults, name):
+            setattr(args, name, value)
+
+
+def time_told(route, args, width: int) -> str:
+    """The line told before the work starts: photos, draws and the estimated time."""
+    from coverplan.progress import format_duration
+    from coverplan.sfm.estimate import simulate_seconds
+
+    photos = int(route.with_existing_photos().shot.sum())
+    draws = 1 if args.conditions == "ideal" else args.draws
+    seconds = simulate_seconds(photos, draws=draws, width=width, max_features=args.max_features,
+                               neighbours=args.neighbours, mapper=args.mapper, threads=args.threads)
+    return (f"simulating {photos} photos, {draws} draw{'s' if draws > 1 else ''} of {width} px: about "
+            f"{format_duration(seconds)} on this machine" + (" (--quick: a first look; the proof is the default "
+                                                            "three draws at 1024 px)" if getattr(args, "quick", False)
+                                                            else ""))
+
+
 def simulate_defaults(args):
     """``plan --simulate``'s options: simulate's defaults, with plan's --quiet, --verbose and --strict."""
-    import argparse
-
     parser = argparse.ArgumentParser()
     add_simulate_args(parser)
     ns = parser.parse_args([])
@@ -43,9 +72,12 @@ def simulate_route(route, scene, out_dir, args) -> int:
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise ParameterError(f"{out} exists and is not a folder")
-    progress = Progress(bars=not getattr(args, "quiet", False), verbose=getattr(args, "verbose", False))
+    quiet = getattr(args, "quiet", False)
+    progress = Progress(bars=not quiet, verbose=getattr(args, "verbose", False), lines=True)
     if args.draws < 1:
         raise ParameterError(f"--draws must be at least 1, got {args.draws}")
+    if not quiet:
+        print(f"coverplan: {time_told(route, args, width)}", file=sys.stderr, flush=True)
     sim = simulate(route, scene, out, conditions=args.conditions, draws=args.draws, texture=args.texture,
                    matching=args.matching, mapper=args.mapper, spatial_neighbours=args.neighbours,
                    max_features=args.max_features, width=width, threads=args.threads, progress=progress)
@@ -68,6 +100,10 @@ def register(sub) -> None:
     add_scene_args(p, targets_positional=False, recorded=True)
     p.add_argument("-o", "--output", required=True, metavar="DIR", help="folder for photos, COLMAP files and simulation.json")
     add_simulate_args(p)
+    p.add_argument("--quick", action="store_true",
+                   help="a first look in minutes: one draw of 640 px photos, 4,096 features each, 20 spatial "
+                        "neighbours (options given alongside still count); it gives up the worst of three draws "
+                        "and the detail of 1024 px photos, so its verdict is not the proof")
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--strict", action="store_true",
                    help="exit 1 unless the flight is reconstructable (one model with >= 98 %% of the photos and "
