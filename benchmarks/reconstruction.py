@@ -6,7 +6,7 @@ their photos rendered on the textured scene as a drone would take them and run t
 (``coverplan.sfm.simulate``); the table gives photos, path, flight time, planning time, photos
 registered in the largest model, number of models and the share of the target surface with a
 3D point within 0.2 m, overall and per surface class, worst and median of the draws. Also the
-thesis's rule (``--rule thesis``), the plan without its pose margin (``--margin none``) and
+thesis's rule (``--rule thesis``), the plan without its pose margin (``--pose-margin none``) and
 without its edge views (``--edge-views off``).
 Slow (minutes per flight): not part of the test suite. ``--quick`` runs one small scene.
 """

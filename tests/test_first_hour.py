@@ -88,3 +88,26 @@ def test_every_option_of_every_subcommand_has_help():
                for name, sub in parser._subparsers._group_actions[0].choices.items()
                for a in sub._actions if a.dest != "help" and not a.help]
     assert not lacking, lacking
+
+
+def test_the_old_name_of_an_option_still_plans_and_says_the_new_one(tmp_path, capsys):
+    code, _, err = run(capsys, "plan", HOUSE, *CAMERA, "--gsd", "0.004", "--security", "3", "--margin", "none",
+                       "-o", tmp_path / "old.json", "-q")
+    assert code == 0 and err.count("--margin is now --pose-margin") == 1
+    code, _, err = run(capsys, "plan", HOUSE, *CAMERA, "--gsd", "0.004", "--security", "3", "--pose-margin", "none",
+                       "-o", tmp_path / "new.json", "-q")
+    assert code == 0 and not err.strip()
+    old, new = (json.loads((tmp_path / n).read_text()) for n in ("old.json", "new.json"))
+    assert old["waypoints"] == new["waypoints"] and new["params"]["pose_margin"]["kind"] == "none"
+
+
+def test_evaluate_refuses_an_unknown_rule_as_the_rest_does():
+    from trimesh.creation import box
+
+    from coverplan import evaluate, get_camera, plan
+    from coverplan.world.scene import scene_from_meshes
+
+    scene = scene_from_meshes([box((6, 6, 4))])
+    route = plan(scene, get_camera("phantom4pro"), gsd=0.004, security=3.0, lp_time_limit=0)
+    with pytest.raises(ParameterError, match="rule must be one of"):
+        evaluate(route, scene, rule="strictest")

@@ -29,6 +29,21 @@ class Formatter(argparse.HelpFormatter):
         return getattr(action, "shown_as", None) or super()._format_args(action, default_metavar)
 
 
+class DeprecatedAlias(argparse.Action):
+    """An option that still answers to its old name (``old``), with a warning that says the new one."""
+
+    def __init__(self, option_strings, dest, old: str, **kwargs):
+        self.old, self.warned = old, False
+        super().__init__(option_strings, dest, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        if option_string == self.old and not self.warned:  # once, though main parses the line twice
+            self.warned = True
+            print(f"coverplan: {self.old} is now {self.option_strings[0]} (the old name goes in the next release)",
+                  file=sys.stderr)
+        setattr(namespace, self.dest, values)
+
+
 class Parser(argparse.ArgumentParser):
     """argparse with one-line errors and exit status 2."""
 
@@ -354,7 +369,8 @@ def add_planning_args(p) -> dict:
     q.add_argument("--rule", choices=["sfm", "thesis"], default="sfm",
                    help="sfm (default): plan for a reconstruction (docs/reconstruction.md); "
                         "thesis: 2 views 5 deg apart, the thesis's rule, for comparison")
-    s.add_argument("--margin", choices=["field", "none"], default="field",
+    s.add_argument("--pose-margin", "--margin", dest="margin", action=DeprecatedAlias,
+                   old="--margin", choices=["field", "none"], default="field",
                    help="field (default): judge frames and view-pair angles with the drone's own position, heading "
                         "and gimbal error (docs/reconstruction.md); none: the rules as given")
     f.add_argument("--fly", choices=["through", "stop"], default="through",

@@ -119,7 +119,7 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
         links, per class), ``safe``.
     """
     if rule not in RULES:
-        raise ValueError(f"rule must be one of {RULES}")
+        raise ParameterError(f"rule must be one of {RULES}, got {rule!r}")
     if route.params.get("terrain") and scene.terrain is None:
         raise ParameterError(f"the route was planned over the terrain {route.params['terrain']}: give it with "
                              "--terrain, its altitudes are judged against it")

@@ -82,15 +82,16 @@ def resolve(scene, camera: Camera, settings: PlanSettings, drone: DroneProfile |
                           max_altitude=settings.max_altitude, zones=settings.zones.grown(zone_margin(settings, drone)))
     extra = safety_margin(settings.security)
     # The rules judged with the drone's pose error: a narrower frame, narrower pair angles.
-    asked_camera, match, min_tri = camera, settings.match, float(settings.min_triangulation_deg)
+    asked_camera, match = camera, settings.match
+    min_triangulation_deg = float(settings.min_triangulation_deg)
     pose = margin_for(settings.pose_margin, drone, standoff(camera, limits, extra))
     if pose != NO_MARGIN:
         camera = pose.camera(camera)
-        match, min_tri = tightened(match, min_tri, pose)
-        if match and not min_tri < match.max_pair_deg:
-            raise ParameterError(f"with the pose margin the narrowest triangulating pair ({min_tri:.1f} "
-                                 f"deg) is not below the widest matchable one ({match.max_pair_deg:.1f} deg); "
-                                 "widen --max-pair-deg or use --margin none")
+        match, min_triangulation_deg = tightened(match, min_triangulation_deg, pose)
+        if match and not min_triangulation_deg < match.max_pair_deg:
+            raise ParameterError(f"with the pose margin the narrowest triangulating pair "
+                                 f"({min_triangulation_deg:.1f} deg) is not below the widest matchable one ({match.max_pair_deg:.1f} deg); "
+                                 "widen --max-pair-deg or use --pose-margin none")
         limits = replace(limits, vfov_deg=camera.vfov_deg)
     spacing = default_spacing(scene, d_opt) if settings.spacing is None else settings.spacing
     distance = standoff(camera, limits, extra)
@@ -101,8 +102,8 @@ def resolve(scene, camera: Camera, settings: PlanSettings, drone: DroneProfile |
         start = default_start(scene, limits, extra)
     else:
         start, notes = check_start(scene, start, limits)
-    return Setup(settings, asked_camera, camera, limits, pose, match, min_tri, d_opt, extra, spacing, distance,
-                 start, model, max_flight_min, drone, tuple(notes))
+    return Setup(settings, asked_camera, camera, limits, pose, match, min_triangulation_deg, d_opt, extra, spacing,
+                 distance, start, model, max_flight_min, drone, tuple(notes))
 
 
 def zone_margin(settings: PlanSettings, drone: DroneProfile | None) -> float:
