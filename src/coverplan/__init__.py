@@ -1,7 +1,7 @@
 """coverplan: safe drone photo flights whose photos rebuild every part of a building.
 
 The facade: ``load_scene``, ``Camera``/``get_camera``, ``plan``, ``evaluate``, ``simulate``,
-``Route``. The subpackages are the pipeline's stages, each importing only earlier ones:
+``check``, ``Route``. The subpackages are the pipeline's stages, each importing only earlier ones:
 ``geometry`` -> ``equipment`` -> ``world`` -> ``shots`` -> ``flight`` -> ``planning`` /
 ``evaluation`` -> ``io`` -> ``sfm`` -> ``report`` -> ``job`` -> ``batch`` -> ``cli``.
 """
@@ -14,9 +14,10 @@ from coverplan.evaluation import Evaluation, evaluate  # noqa: E402
 from coverplan.flight.route import Route  # noqa: E402
 from coverplan.io.load import load_scene  # noqa: E402
 from coverplan.planning import PlanSettings, plan  # noqa: E402
+from coverplan.sfm.check import Check, check  # noqa: E402
 from coverplan.sfm.simulate import Simulation, simulate  # noqa: E402
 from coverplan.world.scene import Scene  # noqa: E402
 
 __all__ = ["Camera", "PRESETS", "get_camera", "Scene", "load_scene", "Route", "plan", "PlanSettings", "evaluate",
-           "Evaluation", "simulate", "Simulation", "CoverplanError", "InputFileError", "ParameterError",
+           "Evaluation", "simulate", "Simulation", "check", "Check", "CoverplanError", "InputFileError", "ParameterError",
            "PlanningError", "RouteFormatError"]

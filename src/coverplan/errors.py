@@ -8,7 +8,15 @@ class CoverplanError(Exception):
 
 
 class InputFileError(CoverplanError):
-    """A file is missing, unreadable, of an unknown format, or holds no usable data."""
+    """A file is missing, unreadable, of an unknown format, or holds no usable data.
+
+    Parameters
+    ----------
+    path : path
+        The file.
+    problem : str
+        What is wrong with it, in one line.
+    """
 
     def __init__(self, path, problem: str):
         self.path = str(path)
@@ -17,7 +25,15 @@ class InputFileError(CoverplanError):
 
 
 class RouteFormatError(InputFileError):
-    """A route file that does not follow the coverplan-route format."""
+    """A route file that does not follow the coverplan-route format.
+
+    Parameters
+    ----------
+    path : path
+        The file.
+    problem : str
+        What is wrong with it, in one line.
+    """
 
 
 class ParameterError(CoverplanError):

@@ -15,6 +15,17 @@ class Camera:
     """A camera by its sensor (mm), focal length (mm) and image size (px).
 
     Images are landscape: the sensor's long side is horizontal.
+
+    Parameters
+    ----------
+    sensor_width_mm, sensor_height_mm : float
+        The sensor's size in mm.
+    focal_length_mm : float
+        The lens's real focal length in mm (not the 35 mm equivalent).
+    image_width_px, image_height_px : int
+        The photo's size in pixels.
+    name : str, optional
+        The preset's name.
     """
 
     sensor_width_mm: float
@@ -134,7 +145,29 @@ PRESETS: dict[str, Camera] = {
 
 
 def get_camera(name: str) -> Camera:
-    """The preset called ``name``; the error lists the presets that exist."""
+    """The camera preset called ``name``.
+
+    Parameters
+    ----------
+    name : str
+        A preset (``coverplan cameras`` lists them), in any case.
+
+    Returns
+    -------
+    Camera
+
+    Raises
+    ------
+    ParameterError
+        For an unknown name; the message lists the presets that exist.
+
+    Examples
+    --------
+    >>> import coverplan
+    >>> camera = coverplan.get_camera("phantom4pro")
+    >>> round(camera.optimal_distance(0.004), 2)  # metres from the surface for 4 mm/px
+    14.59
+    """
     try:
         return PRESETS[name.lower()]
     except KeyError:

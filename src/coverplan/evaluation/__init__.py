@@ -59,7 +59,33 @@ def view_limits(route: Route, scene, rule: str = "strict") -> ViewLimits:
 
 @dataclass
 class Evaluation:
-    """Per-sample results and the metrics of docs/design.md for one route."""
+    """Per-sample results and the metrics of docs/design.md for one route.
+
+    Parameters
+    ----------
+    route : Route
+        The route judged.
+    samples : SurfaceSamples
+        The evaluator's own surface samples (n of them), never the planner's.
+    views : (n,) int
+        Valid views of each sample.
+    widest_deg : (n,) float
+        The widest angle between two of its valid views.
+    covered, reachable : (n,) bool
+        Covered by the rule; imageable from some safe position at all.
+    reasons : list of str
+        Why each unreachable sample cannot be imaged.
+    pairs : tuple of three (m,) arrays
+        Photo index, sample index and range (m) of every valid view.
+    segment_clearance : (n_waypoints - 1,) float
+        Each path segment's least distance to any mesh or the ground (m).
+    segment_mesh : (n_waypoints - 1,) int
+        The mesh that distance is to.
+    waypoint_inside : (n_waypoints,) int
+        The mesh a waypoint lies inside, -1 for none.
+    metrics : dict
+        Coverage, clearance, altitudes, zones, links, per class (``table()`` prints them).
+    """
 
     route: Route
     samples: SurfaceSamples
@@ -111,12 +137,27 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
         Judge only these of facade / roof / terrace / opposed_terrace; None: the classes the
         route was planned for (all when it does not say).
     seed : int
+        The samples' seed (the planner never uses the default).
 
     Returns
     -------
     Evaluation
         ``covered`` / ``reachable`` : (n,) bool per sample, ``metrics`` (coverage, clearance,
         links, per class), ``safe``.
+
+    Raises
+    ------
+    ParameterError
+        An unknown rule, or a route planned over terrain judged without it.
+
+    Examples
+    --------
+    >>> import coverplan
+    >>> scene = coverplan.load_scene("meshes/square_prism.obj")
+    >>> route = coverplan.plan(scene, coverplan.get_camera("phantom4pro"), gsd=0.004, security=3.0)
+    >>> ev = coverplan.evaluate(route, scene)
+    >>> ev.safe, ev.coverage_pct > 99.0, ev.metrics["min_clearance_m"] >= 3.0
+    (True, True, True)
     """
     if rule not in RULES:
         raise ParameterError(f"rule must be one of {RULES}, got {rule!r}")

@@ -41,24 +41,72 @@ STRAIGHT_DEG = 0.5  # a waypoint where the path turns less is not a corner
 
 @dataclass
 class Route:
-    """Waypoints (local metres), the camera and parameters, and what the plan left uncovered."""
+    """Waypoints (local metres), the camera and parameters, and what the plan left uncovered.
 
-    positions: np.ndarray  # (n, 3)
-    shot: np.ndarray  # (n,) bool
-    heading_deg: np.ndarray  # (n,)
-    pitch_deg: np.ndarray  # (n,)
+    What ``plan`` returns and the route file holds (docs/route-format.md).
+
+    Parameters
+    ----------
+    positions : (n, 3) float
+        Waypoints in the local frame (m), from the take-off point back to it.
+    shot : (n,) bool
+        Whether a photo is taken at each waypoint.
+    heading_deg : (n,) float
+        Camera heading, degrees clockwise from the local +y axis (grid north).
+    pitch_deg : (n,) float
+        Gimbal pitch in degrees: 0 level, -90 straight down.
+    leg : list of str
+        "initial", "coverage" or "final" per waypoint.
+    camera : Camera
+    params : dict
+        The settings it was planned with (``gsd_m``, ``security_m``, ...) and the scene's record.
+    view_dir : (n, 3) float, optional
+        Unit view directions; derived from heading and pitch when None.
+    frame : dict
+        Where the local frame sits on Earth: ``crs``, ``origin``, ``geodetic_origin``.
+    uncovered : list of dict
+        Surface the plan could not cover, with the reason and the area (m2).
+    metrics : dict
+        The planner's figures and the evaluation.
+    extra : dict
+        Notes and other planner output.
+    flight : (n,) int, optional
+        The battery flight (1, 2, ...) of each waypoint; None: one flight.
+    ground_z : (n,) float, optional
+        The terrain's height under each waypoint (planned over terrain).
+    pass_speed : (n,) float, optional
+        Speed (m/s) where the drone flies through a waypoint, 0 at stops.
+    turn_damping : (n,) float, optional
+        Metres before a waypoint flown through at which its turn starts.
+
+    Examples
+    --------
+    >>> import coverplan
+    >>> scene = coverplan.load_scene("meshes/square_prism.obj")
+    >>> route = coverplan.plan(scene, coverplan.get_camera("phantom4pro"), gsd=0.004, security=3.0)
+    >>> import tempfile
+    >>> path = route.save(Path(tempfile.mkdtemp()) / "route.json")
+    >>> again = coverplan.Route.load(path)
+    >>> int(again.shot.sum()) == int(route.shot.sum()), bool((again.above_ground() >= 3.0 - 1e-6).all())
+    (True, True)
+    """
+
+    positions: np.ndarray
+    shot: np.ndarray
+    heading_deg: np.ndarray
+    pitch_deg: np.ndarray
     leg: list[str]
     camera: Camera
     params: dict
-    view_dir: np.ndarray | None = None  # (n, 3); derived from heading/pitch when None
+    view_dir: np.ndarray | None = None
     frame: dict = field(default_factory=lambda: {"crs": None, "origin": [0.0, 0.0, 0.0]})
     uncovered: list[dict] = field(default_factory=list)
     metrics: dict = field(default_factory=dict)
     extra: dict = field(default_factory=dict)
-    flight: np.ndarray | None = None  # (n,) 1, 2, ...: the battery flight of each waypoint
-    ground_z: np.ndarray | None = None  # (n,) the terrain's height under each waypoint (planned over terrain)
-    pass_speed: np.ndarray | None = None  # (n,) m/s where the drone flies through (passing.py), 0 at stops
-    turn_damping: np.ndarray | None = None  # (n,) m before a waypoint flown through that its turn starts
+    flight: np.ndarray | None = None
+    ground_z: np.ndarray | None = None
+    pass_speed: np.ndarray | None = None
+    turn_damping: np.ndarray | None = None
 
     def __post_init__(self):
         self.positions = np.asarray(self.positions, dtype=float).reshape(-1, 3)
@@ -135,7 +183,13 @@ class Route:
         return float(self.params.get("ground_z_m", self.positions[:, 2].min()))
 
     def above_ground(self) -> np.ndarray:
-        """Each waypoint's height above the ground under it (the flat ground without terrain)."""
+        """Each waypoint's height above the ground under it (the flat ground without terrain).
+
+        Returns
+        -------
+        (n,) float
+            Metres above the terrain under each waypoint, or above the take-off ground.
+        """
         return self.positions[:, 2] - (self.ground_z if self.ground_z is not None else self.takeoff_z)
 
     def flight_rows(self) -> list[np.ndarray]:
@@ -143,7 +197,17 @@ class Route:
         return [np.flatnonzero(self.flight == k) for k in range(1, self.n_flights + 1)]
 
     def flight_route(self, k: int) -> "Route":
-        """Flight ``k`` (1-based) alone, as a route of its own."""
+        """Flight ``k`` alone, as a route of its own.
+
+        Parameters
+        ----------
+        k : int
+            The battery flight, 1-based.
+
+        Returns
+        -------
+        Route
+        """
         rows = np.flatnonzero(self.flight == k)
         return Route(self.positions[rows], self.shot[rows], self.heading_deg[rows], self.pitch_deg[rows],
                      [self.leg[r] for r in rows], self.camera, dict(self.params), view_dir=self.view_dir[rows],
@@ -225,7 +289,20 @@ class Route:
         return d
 
     def save(self, path, force: bool = True) -> Path:
-        """Write the route file atomically (temporary file, then rename)."""
+        """Write the route file atomically (temporary file, then rename).
+
+        Parameters
+        ----------
+        path : path
+            The route file (.json); the scene's files are recorded relative to it.
+        force : bool
+            Overwrite an existing file.
+
+        Returns
+        -------
+        Path
+            The file written.
+        """
         path = Path(path)
         if path.exists() and not force:
             raise ParameterError(f"{path} exists; pass --force to overwrite it")
@@ -236,6 +313,23 @@ class Route:
 
     @classmethod
     def load(cls, path) -> "Route":
+        """Read a route file.
+
+        Parameters
+        ----------
+        path : path
+            A file written by ``Route.save`` (or ``coverplan plan``).
+
+        Returns
+        -------
+        Route
+            With the scene's recorded paths made absolute again.
+
+        Raises
+        ------
+        RouteFormatError
+            A missing file, or one that does not follow the route format.
+        """
         path = Path(path)
         if not path.exists():
             raise RouteFormatError(path, "no such file")

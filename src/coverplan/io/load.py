@@ -36,24 +36,75 @@ def load_scene(targets: str | Path | MeshSource | Sequence[str | Path | MeshSour
                terrain: str | Path | None = None) -> Scene:
     """Read target and obstacle files into a Scene in metres.
 
-    ``obstacle_points``: LAS/LAZ/PLY point clouds in the same coordinates as the meshes; their
-    occupied voxels of ``points_resolution`` metres (LAS classes ``point_classes``, default
-    all but ground and noise) become obstacles (pointcloud.py). Footprint files (GeoJSON,
-    GeoPackage, Shapefile) are extruded to ``height_attribute`` (or ``height``) metres, with a
-    gable of ``roof_attribute`` metres (io/footprints.py).
+    Far-away coordinates are moved to a local origin (kept in ``Scene.origin``); the local frame
+    has x east, y north, z up.
 
-    ``target_names`` picks, inside multi-object target files (GLB, OBJ), the objects that are
-    targets; the file's other objects become obstacles. For CityGML / CityJSON, ``building``
-    names the target building (its id), ``lod`` the level of detail, and city objects within
-    ``context_radius`` metres become obstacles. ``ground`` is a height in metres in the source
-    frame. Far-away coordinates are moved to a local origin (kept in ``Scene.origin``).
-    ``crs`` names the projected CRS of mesh coordinates that carry none; ``geodetic_origin``
-    [lat, lon, h] places a local (east, north, up) mesh frame on Earth instead. A target may
-    also be a MeshSource already read (``coverplan batch`` reads a city file once).
+    Parameters
+    ----------
+    targets : path, MeshSource or sequence of them
+        Target files: meshes (OBJ, PLY, STL, OFF, GLB/glTF), CityGML / CityJSON, footprints
+        (GeoJSON, GeoPackage, Shapefile); or a MeshSource already read (``coverplan batch``
+        reads a city file once).
+    obstacles : iterable of path
+        Obstacle mesh files, in the targets' coordinates.
+    units : {"m", "cm", "mm", "ft", "in"}, optional
+        Units of the mesh files (default: the CRS's unit, else m).
+    ground : float, optional
+        Ground height in metres in the source frame (default: the target's lowest point).
+    target_names : sequence of str, optional
+        In multi-object target files (GLB, OBJ), the objects that are targets; the file's
+        other objects become obstacles.
+    up_axis : {"y", "z"}, optional
+        Up axis of the mesh files (default z; glTF/GLB y).
+    building : str, optional
+        CityGML / CityJSON: the id of the target building.
+    lod : int, optional
+        CityGML / CityJSON: the level of detail (default: the highest).
+    context_radius : float, optional
+        CityGML / CityJSON: city objects within this distance (m) become obstacles (default 150).
+    crs : str, optional
+        The projected CRS (``"EPSG:25832"``) of mesh coordinates that carry none.
+    geodetic_origin : (3,) float, optional
+        Or [lat, lon, h] (degrees, degrees, m) of a local (east, north, up) mesh frame's origin.
+    obstacle_points : iterable of path
+        LAS / LAZ / PLY point clouds in the meshes' coordinates; their occupied voxels become
+        obstacles.
+    points_resolution : float
+        Voxel size (m) the point clouds are turned into obstacles at.
+    point_classes : sequence of int, optional
+        LAS classes to keep (default: all but ground 2 and noise 7, 18).
+    height_attribute : str, optional
+        Footprints: the attribute with each building's height (m).
+    height : float, optional
+        Footprints: the height (m) of those without the attribute, or of all.
+    roof_attribute : str, optional
+        Footprints: the ridge height above the eaves (m), for a gable roof (default flat).
+    terrain : path, optional
+        A DTM raster (GeoTIFF, any CRS pyproj knows, heights in the models' height system);
+        without it a city model's relief makes the terrain, and without that the ground is flat
+        at ``ground``.
 
-    ``terrain`` is a DTM raster (GeoTIFF) in any CRS pyproj knows, heights in the models'
-    height system; without it, a city model's relief, roads and land use make the terrain,
-    and without those the ground is flat at ``ground`` (default: the target's lowest point).
+    Returns
+    -------
+    Scene
+        Targets, obstacles and ground in the local frame, with the georeference and the notes
+        on what preparing the meshes changed.
+
+    Raises
+    ------
+    InputFileError
+        A file is missing, unreadable or holds no mesh.
+    ParameterError
+        Contradicting or impossible options (a CRS and a geodetic origin, unknown units).
+
+    Examples
+    --------
+    >>> import coverplan
+    >>> scene = coverplan.load_scene("meshes/gabled_house.obj")
+    >>> [part.role for part in scene.parts]
+    ['target']
+    >>> round(float(scene.ground_z), 2)
+    0.0
     """
     obstacles, obstacle_points = list(obstacles), list(obstacle_points)
     if crs is not None and geodetic_origin is not None:

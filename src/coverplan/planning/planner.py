@@ -55,13 +55,29 @@ def plan(scene, camera: Camera, settings: PlanSettings | None = None, *, start=N
     flight_model : FlightModel, optional
         Overrides the drone's flight-time model.
     progress : Progress, optional
+        Bars and stage timings.
+    **options
+        Fields of ``PlanSettings`` (``gsd`` in m/px, ``security`` in m, ``rule``, ...).
 
     Returns
     -------
     Route
         Surface no safe position can image is planned around and listed in ``route.uncovered``.
 
-    Raises ParameterError / PlanningError, with a one-line message, on impossible settings.
+    Raises
+    ------
+    ParameterError
+        Impossible or contradicting settings, with a one-line message.
+    PlanningError
+        Settings that make a plan impossible in this scene (a start inside a mesh, ...).
+
+    Examples
+    --------
+    >>> import coverplan
+    >>> scene = coverplan.load_scene("meshes/square_prism.obj")
+    >>> route = coverplan.plan(scene, coverplan.get_camera("phantom4pro"), gsd=0.004, security=3.0)
+    >>> int(route.shot.sum()) > 20, route.n_flights, bool((route.positions[0] == route.positions[-1]).all())
+    (True, 1, True)
     """
     t0 = time.perf_counter()
     progress = progress or Progress()

@@ -226,10 +226,37 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
         COLMAP's mapper, as ``simulate`` takes it.
     working_px : int or None
         The longest side, px, the photos are scaled down to for their features (None: full size).
+    threads : int
+        Threads for COLMAP (-1: every core).
+    exhaustive_limit : int
+        Up to this many photos every pair is matched; above it, COLMAP's spatial matcher on
+        the GNSS tags.
+    spatial_neighbours : int
+        Spatial matching's neighbours per photo.
+    judge_spacing : float
+        Spacing (m) of the samples the model is judged on.
+    progress : Progress, optional
+        Bars and stage timings.
 
     Returns
     -------
     Check
+        Photos registered, models, the alignment and its residuals, the surface rebuilt per
+        class, or why no verdict could be given.
+
+    Raises
+    ------
+    InputFileError
+        A folder without photos, or without two photos that carry a position.
+    SfmError
+        A COLMAP stage failed; the database is kept, so a rerun resumes.
+
+    Examples
+    --------
+    >>> import coverplan  # doctest: +SKIP
+    >>> scene = coverplan.load_scene("house.obj", geodetic_origin=(48.7758, 9.1829, 250.0))  # doctest: +SKIP
+    >>> result = coverplan.check("photos/", scene, "check/")  # doctest: +SKIP
+    >>> print(result.table())  # doctest: +SKIP
     """
     require_pycolmap("check")
     progress = progress or Progress()

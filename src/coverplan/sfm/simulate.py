@@ -53,28 +53,68 @@ def photo_names(n: int) -> list[str]:
 
 @dataclass
 class Simulation:
-    """What SfM made of a route's photos."""
+    """What SfM made of a route's photos (the worst draw, with every draw's summary).
+
+    Parameters
+    ----------
+    photos : int
+        Photos rendered.
+    registered, registered_any : int
+        Photos in the largest model, and in any model.
+    models : int
+        Models COLMAP returned.
+    points : int
+        3D points of the largest model.
+    reprojection_error_px : float
+        Its mean reprojection error in px.
+    centre_error_m : dict
+        Median and max camera-centre error (m) of the largest model after alignment.
+    surface : dict
+        The surface rebuilt at 0.1 and 0.2 m, overall and per class.
+    photo_width_px : int
+        Width of the rendered photos.
+    seconds : dict
+        Each stage's time.
+    shot_registered : (k,) bool
+        Per photo, in route order: in the largest model.
+    sample_points : (m, 3) float
+        The judging samples.
+    sample_distance : (m,) float
+        Distance from each to the nearest 3D point (m).
+    model_points : (p, 3) float
+        The largest model's points in the scene's frame.
+    conditions, texture : str
+        Conditions ("ideal", "field", "harsh") and texture family flown.
+    flown_offset_m : dict
+        Median and max distance between where photos were taken and where they were planned.
+    draws : list of dict
+        Every draw's summary, the worst included.
+    worst_draw : int
+        Index of the worst draw in ``draws``: the verdict.
+    mapper : str
+        COLMAP's mapper that made the model.
+    """
 
     photos: int
-    registered: int  # in the largest model
-    registered_any: int  # in any model
+    registered: int
+    registered_any: int
     models: int
-    points: int  # 3D points of the largest model
+    points: int
     reprojection_error_px: float
-    centre_error_m: dict  # median / max camera-centre error of the largest model after alignment
-    surface: dict  # reconstructed_surface() of the largest model, without per-sample arrays
+    centre_error_m: dict
+    surface: dict
     photo_width_px: int
     seconds: dict
-    shot_registered: np.ndarray = field(repr=False)  # per shot (route order): in the largest model
-    sample_points: np.ndarray = field(repr=False)  # judge samples
-    sample_distance: np.ndarray = field(repr=False)  # nearest 3D point per judge sample
+    shot_registered: np.ndarray = field(repr=False)
+    sample_points: np.ndarray = field(repr=False)
+    sample_distance: np.ndarray = field(repr=False)
     model_points: np.ndarray = field(repr=False)
     conditions: str = "ideal"
     texture: str = "ideal"
-    flown_offset_m: dict = field(default_factory=lambda: {"median": 0.0, "max": 0.0})  # photo vs plan
-    draws: list = field(default_factory=list)  # every draw's summary(), worst included
+    flown_offset_m: dict = field(default_factory=lambda: {"median": 0.0, "max": 0.0})
+    draws: list = field(default_factory=list)
     worst_draw: int = 0
-    mapper: str = "incremental"  # COLMAP's mapper
+    mapper: str = "incremental"
 
     @property
     def least_class(self) -> tuple[str, float]:
@@ -254,13 +294,42 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
         COLMAP's incremental mapper, its global one (GLOMAP), or "auto": the global one for
         flights of more than ``colmap.GLOBAL_MAPPING_ABOVE`` photos.
     max_features : int
-        SIFT features per photo (COLMAP's default 8192). Fewer match faster: at 4096 the gabled
-        house's field draw matched in 42 s instead of 75 s and rebuilt 97.2 % instead of 99.4 %.
+        SIFT features per photo (COLMAP's default 8192). Fewer match faster and rebuild less.
+    width : int
+        Width of the rendered photos in px (the field of view kept).
+    threads : int
+        Threads for COLMAP (-1: every core).
+    seed : int
+        The first draw's seed.
+    exhaustive_limit : int
+        Up to this many photos every pair is matched.
+    spatial_neighbours : int
+        Spatial matching's neighbours per photo.
+    judge_spacing : float
+        Spacing (m) of the samples the model is judged on.
+    progress : Progress, optional
+        Bars and stage timings.
 
     Returns
     -------
     Simulation
         The worst draw.
+
+    Raises
+    ------
+    ParameterError
+        Without pycolmap (``pip install 'coverplan[sfm]'``), or with impossible sizes.
+    SfmError
+        A COLMAP stage failed; what it wrote is kept.
+
+    Examples
+    --------
+    >>> import coverplan  # doctest: +SKIP
+    >>> scene = coverplan.load_scene("meshes/gabled_house.obj")  # doctest: +SKIP
+    >>> route = coverplan.plan(scene, coverplan.get_camera("phantom4pro"), gsd=0.004, security=3.0)  # doctest: +SKIP
+    >>> sim = coverplan.simulate(route, scene, "house_sim", draws=1, width=640)  # doctest: +SKIP
+    >>> sim.models, sim.registered == sim.photos  # doctest: +SKIP
+    (1, True)
     """
     require_pycolmap()
     cond = conditions if isinstance(conditions, Conditions) else get_conditions(conditions)

@@ -33,7 +33,33 @@ class MeshPart:
 
 @dataclass
 class Scene:
-    """Targets and obstacles in local coordinates (source coordinates minus ``origin``)."""
+    """Targets and obstacles in local coordinates (source coordinates minus ``origin``).
+
+    Made by ``load_scene`` (from files) or ``scene_from_meshes`` (from trimesh meshes).
+
+    Parameters
+    ----------
+    parts : list of MeshPart
+        Each mesh with its name, role ("target" or "obstacle") and source file.
+    ground_z : float, optional
+        Height of the flat ground in the local frame (default: the targets' lowest point).
+    crs : str, optional
+        The projected CRS of the source coordinates.
+    origin : (3,) float
+        Source coordinates of the local frame's origin (m).
+    notes : list of str
+        What preparing the meshes changed or found (repairs, warnings).
+    vertical_crs : str, optional
+        The height system of the source coordinates.
+    geodetic_origin : (3,) float, optional
+        [lat, lon, h]: local x, y, z are east, north, up there.
+    crs_unit_m : float
+        Metres per unit of the CRS (source coordinates were scaled by it).
+    terrain : Terrain, optional
+        The ground's heights; None: flat at ``ground_z``.
+    source : dict, optional
+        The files and options it was loaded from (io/scene_record.py); None: not from files.
+    """
 
     parts: list[MeshPart]
     ground_z: float | None = None
@@ -41,10 +67,10 @@ class Scene:
     origin: np.ndarray = field(default_factory=lambda: np.zeros(3))
     notes: list[str] = field(default_factory=list)
     vertical_crs: str | None = None
-    geodetic_origin: list | None = None  # [lat, lon, h]: local x, y, z are east, north, up there
-    crs_unit_m: float = 1.0  # metres per unit of the CRS (source coordinates were scaled by it)
-    terrain: Terrain | None = None  # the ground's heights; None: flat at ground_z
-    source: dict | None = None  # the files and options it was loaded from (io/scene_record.py); None: not from files
+    geodetic_origin: list | None = None
+    crs_unit_m: float = 1.0
+    terrain: Terrain | None = None
+    source: dict | None = None
     _clearance: dict = field(default_factory=dict, init=False, repr=False)
 
     def __post_init__(self):
