@@ -19,5 +19,5 @@ from coverplan.sfm.simulate import Simulation, simulate  # noqa: E402
 from coverplan.world.scene import Scene  # noqa: E402
 
 __all__ = ["Camera", "PRESETS", "get_camera", "Scene", "load_scene", "Route", "plan", "PlanSettings", "evaluate",
-           "Evaluation", "simulate", "Simulation", "check", "Check", "CoverplanError", "InputFileError", "ParameterError",
-           "PlanningError", "RouteFormatError"]
+           "Evaluation", "simulate", "Simulation", "check", "Check", "CoverplanError", "InputFileError",
+           "ParameterError", "PlanningError", "RouteFormatError"]
