@@ -4,7 +4,7 @@ A photo's auto exposure meters its whole frame, and SfM finds its features in pr
 the surface in it. A wide wall photographed at the standoff fills a third to a half of the
 frame; a tower 4.4 m wide fills a fifth of it and the rest is sky or sunlit ground, so a tower
 face in shade comes out dark and matches few features. Measured on the chapel under field
-conditions (``benchmarks/tall_faces.py``, cells texture, sun from the south-east): the nave's
+conditions (a field draw with the cells texture, sun from the south-east): the nave's
 shaded north wall filled 25-50 % of its photos, was exposed at a mean grey of 80-90 and gave
 15-20 keypoints per thousand pixels and 1,000-3,800 3D points per photo; the tower's shaded
 west face above the nave filled 9-30 %, at grey 55, with 8-10 keypoints per thousand pixels and
