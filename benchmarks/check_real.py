@@ -5,7 +5,9 @@ Each set is checked as the cameras wrote it against a flat 160 x 160 m target un
 whose photos give no height above the ground, 300 m: no verdict is expected there, only its
 reason). Per set and ``--working-px``: seconds per photo for features, matching and mapping,
 photos registered in the largest model, models, the camera centres' distance from their GNSS
-tags after alignment, the fit's move and the verdict or why there is none.
+tags after alignment, the fit's move and the verdict or why there is none: the surface with a 3D
+point within 0.2 m, the most the sparse points could reach, and, where that is under the bar, the
+surface the registered photos see twice (the verdict then).
 """
 
 from __future__ import annotations
@@ -60,7 +62,9 @@ def row_for(name: str, ground: float | None, width: int, tmp: Path, first: int |
             "registered": sim.registered, "models": sim.models,
             "residual_median_m": result.gnss_residual_m.get("median"), "fit_m": result.icp_shift_m,
             "fitted": result.fitted, "surface_02_pct": None if result.unjudged else sim.reconstructed_pct,
-            "why_not_judged": result.unjudged or None}
+            "point_ceiling_pct": result.point_ceiling_pct,
+            "seen_twice_pct": result.photo_cover.get("pct") if result.thin else None,
+            "reconstructable": result.reconstructable, "why_not_judged": result.unjudged or None}
 
 
 def main(argv=None):
@@ -80,7 +84,8 @@ def main(argv=None):
                        ("features_s_per_photo", "features s/photo", ".2f"), ("matching_s", "matching s", ".1f"),
                        ("mapping_s", "mapping s", ".1f"), ("registered", "registered", "d"), ("models", "models", "d"),
                        ("residual_median_m", "centre-tag m", ".2f"), ("fit_m", "fit m", ".2f"),
-                       ("surface_02_pct", "@0.2 m %", ".1f")]))
+                       ("surface_02_pct", "@0.2 m %", ".1f"), ("point_ceiling_pct", "points' ceiling %", ".1f"),
+                       ("seen_twice_pct", "seen twice %", ".1f")]))
     for r in rows:
         if r["why_not_judged"]:
             print(f"{r['set']} at {r['working_px']} px: no verdict: {r['why_not_judged']}")

@@ -163,6 +163,33 @@ def test_check_reads_and_rebuilds_a_real_dji_flight(tmp_path, capsys):
     assert rec.num_reg_images() == result["registered"]
     cams = {c.model.name for c in rec.cameras.values()}
     assert cams  # COLMAP's own model on disk, read back
+    # A few thousand sparse points over 25,600 m2 cannot put a point within 0.2 m of most of it:
+    # the verdict is what the registered photos see twice, and it matches the photos' own
+    # footprints on the target, drawn here from their tags alone.
+    assert result["judged_by"] == "photo views" and result["point_ceiling_pct"] < 95.0
+    assert "too thin to judge at 0.2 m" in captured.out and "seen by 2+ registered photos" in captured.out
+    twice = footprints_seen_twice(tags, lat, lon, half=80.0)
+    assert abs(result["photo_cover_pct"] - twice) < 15.0, (result["photo_cover_pct"], twice)
+
+
+def footprints_seen_twice(tags, lat0: float, lon0: float, half: float) -> float:
+    """% of a flat square target (side 2 * half m, centred on lat0, lon0, at take-off height) inside
+    two or more nadir photos' footprints: each photo's rectangle from its GPS position, its height
+    above take-off, its heading and its focal length in pixels, on a 1 m grid."""
+    from pyproj import Geod
+
+    x = np.arange(-half + 0.5, half, 1.0)
+    gx, gy = np.meshgrid(x, x)
+    count = np.zeros_like(gx)
+    for t in tags:
+        azimuth, _, distance = Geod(ellps="WGS84").inv(lon0, lat0, t.lon, t.lat)
+        east, north = distance * np.sin(np.radians(azimuth)), distance * np.cos(np.radians(azimuth))
+        h = np.radians(t.heading_deg)
+        along = (gx - east) * np.sin(h) + (gy - north) * np.cos(h)
+        across = (gx - east) * np.cos(h) - (gy - north) * np.sin(h)
+        reach = t.relative_altitude_m / t.focal_px
+        count += (np.abs(across) <= reach * t.width / 2) & (np.abs(along) <= reach * t.height / 2)
+    return float(100.0 * (count >= 2).mean())
 
 
 @pytest.mark.xdist_group("real_photos")

@@ -38,7 +38,7 @@ def cmd_check(args) -> int:
         print(result.table())
         print(f"written: {out / 'check.json'}, {out / 'missing.ply'}, {out / 'missing.geojson'}"
               + (f", {args.report}" if args.report else ""))
-    return 1 if args.strict and not result.simulation.reconstructable else 0
+    return 1 if args.strict and not result.reconstructable else 0
 
 
 def register(sub) -> None:

@@ -25,9 +25,10 @@ from coverplan.geometry import geo
 from coverplan.progress import Progress
 from coverplan.sfm.colmap import SPATIAL_NEIGHBOURS, require_pycolmap, run_sfm
 from coverplan.sfm.judge import judge_samples, reconstructed_surface
+from coverplan.sfm.photo_cover import photo_cover, point_ceiling
 from coverplan.sfm.photos import PhotoTags, photo_files, read_photo
 from coverplan.sfm.render import PhotoCamera, ground_plane
-from coverplan.sfm.simulate import JUDGE_SPACING_M, Simulation
+from coverplan.sfm.simulate import CLASS_MIN, JUDGE_SPACING_M, REGISTERED_MIN, SURFACE_MIN, Simulation
 
 ICP_ROUNDS = 15
 ICP_SAMPLE = 20_000
@@ -52,6 +53,24 @@ class Check:
     missing: dict = field(default_factory=dict)  # per class: m2 not rebuilt at 0.2 m
     gnss_residual_m: dict = field(default_factory=dict)  # median / max camera centre to its GNSS tag, aligned
     unjudged: str = ""  # why the surface could not be judged; "" when it was
+    photo_cover: dict = field(default_factory=dict)  # where the sparse model is too thin: what the photos see
+    point_ceiling_pct: float = 100.0  # the most surface the sparse points could reach at 0.2 m
+
+    @property
+    def thin(self) -> bool:
+        """The sparse model has too few points to meet the surface bar at 0.2 m, however good."""
+        return bool(self.photo_cover)
+
+    @property
+    def reconstructable(self) -> bool:
+        """The verdict: simulate's bar, on the photos' 2-view cover where the sparse model is thin."""
+        sim = self.simulation
+        if self.unjudged:
+            return False
+        if not self.thin:
+            return sim.reconstructable
+        return (sim.registered >= REGISTERED_MIN * sim.photos and self.photo_cover["pct"] >= SURFACE_MIN
+                and all(v >= CLASS_MIN for v in self.photo_cover["by_class_pct"].values()))
 
     def table(self) -> str:
         rows = [("photos in the folder", f"{len(self.names) + len(self.left_out)}"),
@@ -66,6 +85,19 @@ class Check:
         if self.unjudged:
             rows += [r for r in verdict if not r[0].startswith(("surface", "  ", "reconstructable"))]
             rows.append(("surface", f"not judged: {self.unjudged}"))
+        elif self.thin:
+            rows += [r for r in verdict if r[0] != "reconstructable"]
+            cover = self.photo_cover
+            rows.append(("sparse points", f"too thin to judge at 0.2 m: {self.simulation.points:,} points could "
+                                          f"reach at most {self.point_ceiling_pct:.1f} % of the surface"))
+            rows.append(("seen by 2+ registered photos", f"{cover['pct']:.1f} % (what a dense reconstruction "
+                                                         "of these photos can rebuild at most)"))
+            rows += [(f"  {c}", f"{v:.1f} %") for c, v in cover["by_class_pct"].items()]
+            rows.append(("reconstructable", ("yes" if self.reconstructable else "no")
+                         + ", judged by what the registered photos see (>= 98 % registered, >= 95 % of the "
+                           "surface and >= 90 % of every class seen twice)"))
+            worst = sorted(self.missing.items(), key=lambda kv: -kv[1])[:4]
+            rows += [("missing", ", ".join(f"{c} {a:.1f} m2" for c, a in worst if a > 0.05) or "nothing")]
         else:
             rows += verdict
             worst = sorted(self.missing.items(), key=lambda kv: -kv[1])[:4]
@@ -85,7 +117,12 @@ class Check:
         return {"photos_used": self.names, "left_out": [{"photo": n, "why": w} for n, w in self.left_out],
                 "icp_shift_m": self.icp_shift_m, "fitted": self.fitted, "missing_m2": self.missing,
                 "gnss_residual_m": self.gnss_residual_m, "judged": not self.unjudged,
-                "why_not_judged": self.unjudged or None, **self.simulation.to_dict()}
+                "why_not_judged": self.unjudged or None, **self.simulation.to_dict(),
+                "judged_by": "" if self.unjudged else "photo views" if self.thin else "sparse points",
+                "point_ceiling_pct": self.point_ceiling_pct,
+                "photo_cover_pct": self.photo_cover.get("pct"),
+                "photo_cover_by_class_pct": self.photo_cover.get("by_class_pct"),
+                "reconstructable": self.reconstructable}
 
 
 def _median_distance(points: np.ndarray, surfaces: trimesh.Trimesh, sample: int = 5000) -> float:
@@ -273,7 +310,7 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
                   working_px=working_px)
     best = sfm.largest
     pts = best.points if best is not None and best.aligned else np.zeros((0, 3))
-    shift, fitted, apart = 0.0, False, None
+    shift, fitted, apart, fit_matrix = 0.0, False, None, None
     if len(pts):
         surfaces = trimesh.util.concatenate([p.mesh for p in scene.parts] + [ground_plane(scene, 2.0 * route.d_opt)])
         if fit:
@@ -285,6 +322,7 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
                 fitted = float(np.linalg.norm(move[:2])) <= MAX_FIT_M and abs(float(move[2])) <= MAX_FIT_VERTICAL_M
                 if fitted:
                     pts = pts @ m[:3, :3].T + m[:3, 3]
+                    fit_matrix = m
                 else:  # not a GNSS error: a wrong georeference or height datum, left for the user to see
                     progress.note(f"fitting the model to the scene would move it {shift:.1f} m "
                                   f"({float(np.linalg.norm(move[:2])):.1f} m across, {float(move[2]):+.1f} m up): "
@@ -303,11 +341,23 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
                      photo_width_px=photo.width, seconds=dict(sfm.seconds),
                      shot_registered=np.array([n in registered for n in names]), sample_points=samples.points,
                      sample_distance=distance, model_points=pts, conditions="photos", texture="real")
-    missing_mask = distance > 0.2
-    missing = {c: float(samples.area[missing_mask & (classes == c)].sum()) for c in sorted(set(classes))}
+    missing_mask = distance > JUDGING_RADIUS_M
     residual = best.centre_error_m(names, gnss) if best is not None and best.aligned else {}
-    result = Check(sim, route, names, left_out, shift, fitted, missing, residual,
-                   unjudged=_why_unjudged(best, apart, fitted, fit))
+    unjudged = _why_unjudged(best, apart, fitted, fit)
+    ceiling = point_ceiling(len(pts), float(samples.area.sum()), JUDGING_RADIUS_M)
+    cover = {}
+    if not unjudged and ceiling < SURFACE_MIN:
+        with progress.stage("what the registered photos see"):
+            cover = photo_cover(best, samples, scene.rays, fit_matrix)
+        missing_mask = np.zeros(len(samples.points), dtype=bool)
+        missing_mask[cover["judged"][cover["views"] < 2]] = True
+        cover = {"pct": cover["pct"], "by_class_pct": cover["by_class_pct"]}
+    missing = {c: float(samples.area[missing_mask & (classes == c)].sum()) for c in sorted(set(classes))}
+    if cover:  # judged on a subset: the missing area is the share not seen, of each class's area
+        area = surface["class_area_m2"]
+        missing = {c: float(area.get(c, 0.0) * (1.0 - v / 100.0)) for c, v in cover["by_class_pct"].items()}
+    result = Check(sim, route, names, left_out, shift, fitted, missing, residual, unjudged=unjudged,
+                   photo_cover=cover, point_ceiling_pct=ceiling)
     if result.unjudged:
         progress.note(f"no verdict on the surface: {result.unjudged}")
     _write(result, scene, samples, missing_mask, classes, out_dir)

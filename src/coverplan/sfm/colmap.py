@@ -42,6 +42,8 @@ class SfmModel:
     reprojection_error_px: float
     mean_track_length: float
     aligned: bool
+    rotations: np.ndarray | None = None  # (k, 3, 3) each photo's camera-from-local rotation
+    intrinsics: np.ndarray | None = None  # (k, 6) fx, fy, cx, cy, width, height in px (pinhole part)
 
     def centre_error_m(self, names: list[str], true_centres: np.ndarray) -> dict:
         """Median and max distance (m) from each registered camera to where its photo was taken
@@ -478,10 +480,16 @@ def _aligned(pycolmap, rec, index: dict, true_centres: np.ndarray) -> SfmModel:
         ransac.max_error = max(0.05, 0.002 * float(np.ptp(target, axis=0).max()))
         sim = pycolmap.estimate_sim3d_robust(centres, target, ransac)
         sim = sim["tgt_from_src"] if isinstance(sim, dict) else sim
+    rot = np.array([np.asarray(im.cam_from_world().rotation.matrix()) for im in images]).reshape(-1, 3, 3)
+    cams = [rec.cameras[im.camera_id] for im in images]
+    intr = np.array([[c.focal_length_x, c.focal_length_y, c.principal_point_x, c.principal_point_y, c.width,
+                      c.height] for c in cams]).reshape(-1, 6)
     if sim is None:
-        return SfmModel(names, points, centres, error, track, aligned=False)
+        return SfmModel(names, points, centres, error, track, aligned=False, rotations=rot, intrinsics=intr)
     m = np.asarray(sim.matrix())
-    return SfmModel(names, points @ m[:, :3].T + m[:, 3], centres @ m[:, :3].T + m[:, 3], error, track, aligned=True)
+    turn = m[:, :3] / np.cbrt(np.linalg.det(m[:, :3]))  # the similarity's rotation: camera-from-local = R R_s^T
+    return SfmModel(names, points @ m[:, :3].T + m[:, 3], centres @ m[:, :3].T + m[:, 3], error, track,
+                    aligned=True, rotations=rot @ turn.T, intrinsics=intr)
 
 
 class _stage:
