@@ -213,3 +213,76 @@ def test_check_of_a_real_gps_only_flight_says_why_it_gives_no_verdict(tmp_path, 
     assert result["photos"] == 14 and result["registered"] >= 12 and result["models"] == 1
     assert not result["judged"] and "median" in result["why_not_judged"]
     assert "not judged:" in captured.out and "surface reconstructed" not in captured.out
+
+
+@pytest.mark.xdist_group("photos_check")
+def test_a_card_of_two_battery_flights_with_raw_and_broken_files(tmp_path, capsys):
+    """A folder as a card holds it: one subfolder per battery flight whose photos restart at
+    DJI_0001, a DNG beside one JPEG, a JPEG cut short in the copy and one without GPS. The
+    photos of both flights go into one model under their own paths; every other file is named
+    with why it was left out."""
+    import shutil
+
+    scene = load_scene(MESHES / "gabled_house.obj", geodetic_origin=[float(v) for v in ORIGIN])
+    route = plan(scene, get_camera("phantom4pro"), gsd=0.004, security=3.0, edge_views=False)
+    flat = tmp_path / "rendered"
+    written = write_flight_photos(route, scene, flat, width=480)
+    card = tmp_path / "card"
+    half = len(written) // 2
+    for k, path in enumerate(written):
+        flight, number = ("100MEDIA", k + 1) if k < half else ("101MEDIA", k - half + 1)
+        (card / flight).mkdir(parents=True, exist_ok=True)
+        shutil.copy(path, card / flight / f"DJI_{number:04d}.JPG")
+    (card / "100MEDIA" / "DJI_0003.DNG").write_bytes(b"II*\x00" + bytes(4096))  # the raw twin of a JPEG
+    whole = (card / "101MEDIA" / "DJI_0002.JPG").read_bytes()
+    (card / "101MEDIA" / "DJI_0099.JPG").write_bytes(whole[: len(whole) // 2])  # cut short in the copy
+    out = tmp_path / "check"
+    code = main(["check", str(card), "--target", str(MESHES / "gabled_house.obj"), "--geo-origin", *ORIGIN,
+                 "-o", str(out), "--json", "-q"])
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    result = json.loads(captured.out)
+    used = result["photos_used"]
+    assert len(used) == len(written) and "100MEDIA/DJI_0001.JPG" in used and "101MEDIA/DJI_0001.JPG" in used
+    assert result["models"] == 1 and result["registered"] >= 0.98 * len(written)
+    err = captured.err
+    assert "100MEDIA/DJI_0003.DNG left out: a raw file; the JPEG beside it is used" in err
+    assert "101MEDIA/DJI_0099.JPG left out: not a whole image" in err
+    import pycolmap
+
+    models = sorted((out / "colmap" / "sparse").iterdir())
+    rec = max((pycolmap.Reconstruction(m) for m in models), key=lambda r: r.num_reg_images())
+    names = {im.name for im in rec.images.values()}
+    assert {"100MEDIA/DJI_0001.JPG", "101MEDIA/DJI_0001.JPG"} <= names  # COLMAP's own names, both flights
+
+
+@pytest.mark.parametrize("make, words", [
+    ("empty", ["holds no photos"]),
+    ("raw only", ["holds no photos"]),
+    ("a file", ["is not a folder of photos"]),
+    ("two sizes", ["photos of 2 sizes"]),
+    ("no gps", ["with a GPS position", "at least 2"]),
+])
+def test_a_bad_photo_folder_is_one_line(tmp_path, capsys, make, words):
+    from tests.test_bad_input import assert_one_line_error, run
+
+    folder = tmp_path / "photos"
+    folder.mkdir()
+    tags = PhotoTags("a.jpg", 64, 48, 48.77, 9.18, gps_altitude_m=271.0, relative_altitude_m=21.0,
+                     heading_deg=10.0, pitch_deg=-30.0, focal_mm=8.8, pixels_per_mm=4.85)
+    image = np.zeros((48, 64, 3), np.uint8)
+    if make == "raw only":
+        (folder / "DJI_0001.DNG").write_bytes(b"II*\x00" + bytes(64))
+    elif make == "a file":
+        folder.rmdir()
+        folder.write_text("not a folder")
+    elif make == "two sizes":
+        write_photo(folder / "a.jpg", image, tags)
+        write_photo(folder / "b.jpg", np.zeros((60, 80, 3), np.uint8), PhotoTags("b.jpg", 80, 60, 48.77, 9.18,
+                                                                                 relative_altitude_m=21.0,
+                                                                                 focal_mm=8.8, pixels_per_mm=4.85))
+    elif make == "no gps":
+        write_photo(folder / "a.jpg", image, PhotoTags("a.jpg", 64, 48, focal_mm=8.8, pixels_per_mm=4.85))
+    code, _, err = run(capsys, "check", folder, "--target", MESHES / "gabled_house.obj", "--geo-origin", *ORIGIN,
+                       "-o", tmp_path / "out")
+    assert_one_line_error(code, err, *words)

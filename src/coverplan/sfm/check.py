@@ -26,7 +26,7 @@ from coverplan.progress import Progress
 from coverplan.sfm.colmap import SPATIAL_NEIGHBOURS, require_pycolmap, run_sfm
 from coverplan.sfm.judge import judge_samples, reconstructed_surface
 from coverplan.sfm.photo_cover import photo_cover, point_ceiling
-from coverplan.sfm.photos import PhotoTags, photo_files, read_photo
+from coverplan.sfm.photos import PhotoTags, photo_files, raw_files, read_photo, whole_image
 from coverplan.sfm.render import PhotoCamera, ground_plane
 from coverplan.sfm.simulate import CLASS_MIN, JUDGE_SPACING_M, REGISTERED_MIN, SURFACE_MIN, Simulation
 
@@ -74,7 +74,7 @@ class Check:
 
     def table(self) -> str:
         rows = [("photos in the folder", f"{len(self.names) + len(self.left_out)}"),
-                ("left out (no position)", ", ".join(n for n, _ in self.left_out[:8])
+                ("left out", ", ".join(n for n, _ in self.left_out[:8])
                  + (f" and {len(self.left_out) - 8} more" if len(self.left_out) > 8 else "") or "none"),
                 ("aligned to the scene", self._alignment())]
         if self.gnss_residual_m:
@@ -199,12 +199,22 @@ def photos_route(folder, scene, gsd: float, security: float, progress: Progress 
     if not geo.has_georeference(scene.frame):
         raise ParameterError("the photos give latitude/longitude, but the scene has no georeference: pass --crs "
                              "EPSG:XXXX or --geo-origin LAT LON H (as for planning)")
+    left_out = raw_files(folder)
     with progress.stage("reading the photos' metadata", total=len(files), unit="img") as tick:
         tags = []
         for f in files:
-            tags.append(read_photo(f))
+            name = f.relative_to(folder).as_posix()  # photos of several flights may share a file name
+            try:
+                tag = read_photo(f) if whole_image(f) else None
+            except InputFileError:
+                tag = None
+            if tag is None:
+                left_out.append((name, "not a whole image (the file is cut short or corrupt)"))
+            else:
+                tag.name = name
+                tags.append(tag)
             tick(1)
-    left_out = [(t.name, "no GPS position in its metadata") for t in tags if not t.has_position]
+    left_out += [(t.name, "no GPS position in its metadata") for t in tags if not t.has_position]
     tags = [t for t in tags if t.has_position]
     if len(tags) < least:
         raise InputFileError(folder, f"has {len(tags)} photo(s) with a GPS position; "

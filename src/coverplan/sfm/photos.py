@@ -183,15 +183,52 @@ def write_photo(path, image: np.ndarray, tags: PhotoTags, quality: int = 95) -> 
     return Path(path)
 
 
+RAW_SUFFIXES = (".dng", ".arw", ".cr2", ".cr3", ".nef", ".orf", ".raf", ".rw2")
+
+
 def photo_files(folder) -> list[Path]:
-    """The photos in ``folder`` (not its subfolders), sorted by name."""
+    """The photos in ``folder`` and its subfolders (a DJI card's 100MEDIA, 101MEDIA, ... or
+    one folder per battery flight), sorted by their path; hidden folders are left out."""
     folder = Path(folder)
     if not folder.is_dir():
         raise InputFileError(folder, "no such folder" if not folder.exists() else "is not a folder of photos")
-    files = sorted(p for p in folder.iterdir() if p.is_file() and p.suffix.lower() in PHOTO_SUFFIXES)
+    files = sorted(p for p in folder.rglob("*") if p.is_file() and p.suffix.lower() in PHOTO_SUFFIXES
+                   and not any(part.startswith(".") for part in p.relative_to(folder).parts))
     if not files:
         raise InputFileError(folder, f"holds no photos ({', '.join(PHOTO_SUFFIXES)})")
     return files
+
+
+def raw_files(folder) -> list[tuple[str, str]]:
+    """The raw files in ``folder`` (as (name, why) rows of what is left out): COLMAP reads JPEG,
+    TIFF and PNG; a raw file beside its JPEG is the same photo."""
+    folder = Path(folder)
+    out = []
+    for p in sorted(folder.rglob("*")):
+        if p.is_file() and p.suffix.lower() in RAW_SUFFIXES:
+            twin = any(p.with_suffix(s).exists() or p.with_suffix(s.upper()).exists() for s in PHOTO_SUFFIXES)
+            out.append((p.relative_to(folder).as_posix(), "a raw file; the JPEG beside it is used" if twin else
+                        "a raw file, which COLMAP does not read: export it as JPEG"))
+    return out
+
+
+def whole_image(path) -> bool:
+    """False for a JPEG cut short (no end-of-image marker and Pillow cannot decode it all)."""
+    from PIL import Image
+
+    path = Path(path)
+    if path.suffix.lower() not in (".jpg", ".jpeg"):
+        return True
+    with open(path, "rb") as f:
+        f.seek(max(path.stat().st_size - 64, 0))
+        if b"\xff\xd9" in f.read():
+            return True
+    try:
+        with Image.open(path) as img:
+            img.load()
+        return True
+    except OSError:
+        return False
 
 
 def write_flight_photos(route, scene, folder, width: int = 1024, seed: int = 0, shots=None,
