@@ -92,7 +92,7 @@ def _ecef_to_enu(ecef, lat0, lon0, h0) -> np.ndarray:
     return (ecef - _origin_ecef(lat0, lon0, h0)) @ _rotation(lat0, lon0).T
 
 
-def _checked_transformer(src: str, dst: str) -> Transformer:
+def checked_transformer(src: str, dst: str) -> Transformer:
     """The most accurate transformation, or a ParameterError naming the PROJ grids it lacks."""
     import warnings
 
@@ -122,8 +122,8 @@ def ellipsoidal_and_egm96(frame: dict, local) -> tuple[np.ndarray, np.ndarray, n
     local = np.asarray(local, dtype=float).reshape(-1, 3)
     src = local + np.asarray(frame.get("origin") or [0.0, 0.0, 0.0], dtype=float)
     unit = float(frame.get("crs_unit_m", 1.0))
-    lon, lat, h_ell = _checked_transformer(source, "EPSG:4979").transform(src[:, 0] / unit, src[:, 1] / unit, src[:, 2])
-    _lon, _lat, h_egm = _checked_transformer("EPSG:4979", "EPSG:4326+5773").transform(lon, lat, h_ell)
+    lon, lat, h_ell = checked_transformer(source, "EPSG:4979").transform(src[:, 0] / unit, src[:, 1] / unit, src[:, 2])
+    _lon, _lat, h_egm = checked_transformer("EPSG:4979", "EPSG:4326+5773").transform(lon, lat, h_ell)
     return np.asarray(lon), np.asarray(lat), np.asarray(h_ell), np.asarray(h_egm)
 
 

@@ -76,6 +76,7 @@ class Check:
         rows = [("photos in the folder", f"{len(self.names) + len(self.left_out)}"),
                 ("left out", ", ".join(n for n, _ in self.left_out[:8])
                  + (f" and {len(self.left_out) - 8} more" if len(self.left_out) > 8 else "") or "none"),
+                ("heights", self.route.extra.get("heights", "") or "-"),
                 ("aligned to the scene", self._alignment())]
         if self.gnss_residual_m:
             residual = self.gnss_residual_m
@@ -149,17 +150,63 @@ def _why_unjudged(best, apart: float | None, fitted: bool, fit: bool) -> str:
 
 
 def photos_as_mission(tags: list[PhotoTags], absolute_heights: bool, source: str) -> Mission:
-    """The photos as a mission of one photo per waypoint, in name order."""
+    """The photos as a mission of one photo per waypoint, in name order; ``mission.heights``
+    says which height each photo gave and in which datum (``photo_heights``)."""
     lat = np.array([t.lat for t in tags])
     lon = np.array([t.lon for t in tags])
+    alt, ref, heights = photo_heights(tags, absolute_heights)
+    mission = Mission(lat, lon, alt, ref, np.array([t.heading_deg for t in tags]),
+                      np.array([t.pitch_deg for t in tags]), np.ones(len(tags), dtype=bool), source)
+    mission.notes.append(f"heights: {heights}")
+    return mission
+
+
+def photo_heights(tags: list[PhotoTags], absolute_heights: bool) -> tuple[np.ndarray, np.ndarray, str]:
+    """Each photo's height and its reference (above take-off or above sea level), and one line
+    naming the datum.
+
+    Heights above the take-off point (DJI's ``RelativeAltitude``) are used unless the scene's
+    heights have a datum. Then DJI's ``AbsoluteAltitude`` (EGM96 above sea level), or, where
+    the photo was taken with RTK fixed (``RtkFlag`` 50), the same tag as a WGS84 ellipsoidal
+    height, brought to EGM96 with PROJ's geoid grid; else EXIF ``GPSAltitude`` (above sea level
+    as the receiver writes it, its sign from ``GPSAltitudeRef``).
+    """
     rel = np.array([t.relative_altitude_m for t in tags])
-    absolute = np.array([t.absolute_altitude_m if np.isfinite(t.absolute_altitude_m) else t.gps_altitude_m
-                         for t in tags])
+    xmp = np.array([t.absolute_altitude_m for t in tags])
+    exif = np.array([t.gps_altitude_m for t in tags])
+    rtk = np.array([t.rtk_fixed for t in tags])
+    absolute = np.where(np.isfinite(xmp), xmp, exif)
     use_abs = ~np.isfinite(rel) | (absolute_heights & np.isfinite(absolute))
+    ellipsoidal = use_abs & rtk & np.isfinite(xmp)
+    if ellipsoidal.any():
+        lat = np.array([t.lat for t in tags])[ellipsoidal]
+        lon = np.array([t.lon for t in tags])[ellipsoidal]
+        try:
+            geoid = geo.checked_transformer("EPSG:4979", "EPSG:4326+5773")
+            _lon, _lat, h = geoid.transform(lon, lat, absolute[ellipsoidal])
+        except ParameterError:
+            if np.isfinite(rel[ellipsoidal]).all():  # no geoid grid: heights above take-off instead
+                use_abs &= ~ellipsoidal
+                ellipsoidal[:] = False
+            else:
+                raise
+        else:
+            absolute = absolute.copy()
+            absolute[ellipsoidal] = np.asarray(h)
     alt = np.where(use_abs, absolute, rel)
     ref = np.where(use_abs, AMSL, TAKEOFF)
-    return Mission(lat, lon, alt, ref, np.array([t.heading_deg for t in tags]),
-                   np.array([t.pitch_deg for t in tags]), np.ones(len(tags), dtype=bool), source)
+    parts = []
+    if (~use_abs).any():
+        parts.append(f"{int((~use_abs).sum())} above the take-off point (DJI RelativeAltitude)")
+    if ellipsoidal.any():
+        parts.append(f"{int(ellipsoidal.sum())} RTK fixed: WGS84 ellipsoidal (DJI AbsoluteAltitude) brought to EGM96")
+    plain = use_abs & ~ellipsoidal & np.isfinite(xmp)
+    if plain.any():
+        parts.append(f"{int(plain.sum())} above sea level, EGM96 (DJI AbsoluteAltitude)")
+    gps = use_abs & ~np.isfinite(xmp)
+    if gps.any():
+        parts.append(f"{int(gps.sum())} above sea level as the receiver writes it (EXIF GPSAltitude)")
+    return alt, ref, "; ".join(parts)
 
 
 def photo_camera(tags: list[PhotoTags], folder: Path) -> tuple[PhotoCamera, Camera]:
@@ -224,6 +271,7 @@ def photos_route(folder, scene, gsd: float, security: float, progress: Progress 
     absolute = bool(frame.get("vertical_crs") or frame.get("geodetic_origin"))
     route = mission_to_route(photos_as_mission(tags, absolute, "photos"), scene, camera, gsd, security)
     route.extra["source"] = f"{len(tags)} photos in {folder}"
+    route.extra["heights"] = next((n.split(": ", 1)[1] for n in route.extra["notes"] if n.startswith("heights: ")), "")
     return route, tags, left_out, photo
 
 

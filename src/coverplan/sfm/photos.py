@@ -5,8 +5,11 @@ Read from the photos' own metadata with Pillow (EXIF) and lxml (the XMP packet):
 - position: EXIF GPS latitude, longitude and altitude (above sea level); DJI's XMP
   ``drone-dji:AbsoluteAltitude`` and ``drone-dji:RelativeAltitude`` (above the take-off point)
   when present, the relative one preferred unless the scene's heights are above sea level;
-- orientation: ``drone-dji:GimbalYawDegree`` (else ``FlightYawDegree``) and
-  ``GimbalPitchDegree``, degrees from true north and from level;
+- orientation: ``GimbalYawDegree`` (else ``FlightYawDegree``) and ``GimbalPitchDegree``
+  (DJI, Autel), ``CameraYawDegree`` and ``CameraPitchDegree`` (Parrot), ``CameraOrientationNED``
+  Yaw and Pitch (Skydio), degrees from true north and from level; Skydio's and Autel's XMP
+  position where EXIF GPS is missing;
+- RTK: DJI's ``RtkFlag`` and ``RtkStdLon/Lat/Hgt``;
 - camera: the EXIF focal length with the focal-plane resolution (pixels per mm of sensor), or
   the 35 mm equivalent focal length over the image diagonal, and the image size.
 
@@ -27,6 +30,7 @@ from coverplan.geometry.geo import grid_convergence, to_lonlat
 from coverplan.sfm.render import PhotoCamera, ideal_renderer
 
 PHOTO_SUFFIXES = (".jpg", ".jpeg", ".tif", ".tiff", ".png")
+RTK_FIXED = 50
 DJI_NS = "http://www.dji.com/drone-dji/1.0/"
 FULL_FRAME_DIAGONAL_MM = float(np.hypot(36.0, 24.0))
 _GPS, _EXIF = 0x8825, 0x8769
@@ -51,6 +55,12 @@ class PhotoTags:
     focal_mm: float = np.nan
     focal_35mm: float = np.nan
     pixels_per_mm: float = np.nan  # on the sensor (EXIF focal-plane resolution)
+    rtk_flag: int = -1  # DJI RtkFlag: 0 no RTK, 16 single point, 34 float, 50 fixed; -1 not given
+    rtk_std_m: tuple = (np.nan, np.nan, np.nan)  # DJI RtkStdLon, RtkStdLat, RtkStdHgt
+
+    @property
+    def rtk_fixed(self) -> bool:
+        return self.rtk_flag == RTK_FIXED
 
     @property
     def has_position(self) -> bool:
@@ -96,7 +106,7 @@ def read_photo(path) -> PhotoTags:
     if _FP_XRES in sub and float(sub[_FP_XRES]) > 0:
         tags.pixels_per_mm = float(sub[_FP_XRES]) / _MM_PER_UNIT.get(int(sub.get(_FP_UNIT, 2)), 25.4)
     if xmp:
-        _read_dji_xmp(tags, xmp, path)
+        _read_xmp(tags, xmp, path)
     return tags
 
 
@@ -107,37 +117,69 @@ def _degrees(dms, ref, negative: str) -> float:
     return -value if ref.strip().upper() == negative else value
 
 
-def _read_dji_xmp(tags: PhotoTags, xmp, path: Path) -> None:
+RDF, X_NS = "{http://www.w3.org/1999/02/22-rdf-syntax-ns#}", "{adobe:ns:meta/}"
+SKYDIO_NS = "https://www.skydio.com/drone-skydio/1.0/"
+PARROT_NS = "http://www.parrot.com/drone-parrot/1.0/"
+
+
+def _xmp_values(xmp) -> dict[str, str]:
+    """Every XMP property by its local name, whichever maker's namespace holds it (DJI's
+    ``drone-dji``, Autel's ``drone``, Parrot's ``drone-parrot``, Skydio's ``drone-skydio``),
+    written as attributes or as elements; a structure's fields as ``Struct/Field``."""
     text = xmp if isinstance(xmp, bytes) else str(xmp).encode("utf-8")
     try:
         root = etree.fromstring(text.strip(b"\x00 \n"), parser=etree.XMLParser(resolve_entities=False,
                                                                                no_network=True, recover=True))
     except etree.XMLSyntaxError:
-        return
+        return {}
     if root is None:
-        return
-    values = {}
+        return {}
+    values: dict[str, str] = {}
+
+    def local(tag: str) -> str:
+        return tag.rsplit("}", 1)[-1]
+
     for node in root.iter():
-        for key, value in node.attrib.items():  # DJI writes its tags as attributes ...
-            if key.startswith("{" + DJI_NS + "}"):
-                values[key[len(DJI_NS) + 2:]] = value
-        if isinstance(node.tag, str) and node.tag.startswith("{" + DJI_NS + "}") and node.text:
-            values[node.tag[len(DJI_NS) + 2:]] = node.text  # ... or as elements
+        if not isinstance(node.tag, str):
+            continue
+        parent = node.getparent()
+        while parent is not None and isinstance(parent.tag, str) and local(parent.tag) in ("Description", "li"):
+            parent = parent.getparent()  # rdf:Description and rdf:li only wrap a structure's fields
+        owner = "" if parent is None or not isinstance(parent.tag, str) or parent.tag.startswith(RDF) \
+            else local(parent.tag) + "/"
+        own = node.tag.startswith(RDF) or node.tag.startswith(X_NS)
+        prefix = owner if own else owner + local(node.tag) + "/"
+        for key, value in node.attrib.items():
+            if not key.startswith(RDF):
+                values.setdefault(prefix + local(key), value)
+        if not own and node.text and node.text.strip():
+            values.setdefault(owner + local(node.tag), node.text.strip())
+    return values
 
-    def number(name):
-        try:
-            return float(values[name])
-        except (KeyError, ValueError):
-            return np.nan
 
-    for attr, name in (("relative_altitude_m", "RelativeAltitude"), ("absolute_altitude_m", "AbsoluteAltitude"),
-                       ("pitch_deg", "GimbalPitchDegree")):
-        if np.isfinite(number(name)):
-            setattr(tags, attr, number(name))
-    yaw = number("GimbalYawDegree")
-    tags.heading_deg = float(np.mod(yaw if np.isfinite(yaw) else number("FlightYawDegree"), 360.0))
-    if np.isfinite(number("GpsLatitude")) and not np.isfinite(tags.lat):
-        tags.lat, tags.lon = number("GpsLatitude"), number("GpsLongitude")
+def _read_xmp(tags: PhotoTags, xmp, path: Path) -> None:
+    values = _xmp_values(xmp)
+
+    def number(*names):
+        for name in names:
+            try:
+                value = float(values[name])
+            except (KeyError, ValueError):
+                continue
+            if np.isfinite(value):
+                return value
+        return np.nan
+
+    tags.relative_altitude_m = number("RelativeAltitude")
+    tags.absolute_altitude_m = number("AbsoluteAltitude")
+    tags.pitch_deg = number("GimbalPitchDegree", "CameraPitchDegree", "CameraOrientationNED/Pitch")
+    yaw = number("GimbalYawDegree", "CameraYawDegree", "CameraOrientationNED/Yaw", "FlightYawDegree")
+    tags.heading_deg = float(np.mod(yaw, 360.0)) if np.isfinite(yaw) else np.nan
+    if not np.isfinite(tags.lat):
+        tags.lat = number("GpsLatitude", "GPSLatitude", "Latitude")
+        tags.lon = number("GpsLongitude", "GPSLongitude", "GpsLongtitude", "GPSLongtitude", "Longitude")
+    tags.rtk_flag = int(number("RtkFlag")) if np.isfinite(number("RtkFlag")) else -1
+    tags.rtk_std_m = (number("RtkStdLon"), number("RtkStdLat"), number("RtkStdHgt"))
 
 
 def write_photo(path, image: np.ndarray, tags: PhotoTags, quality: int = 95) -> Path:
