@@ -76,11 +76,11 @@ def simulate_route(route, scene, out_dir, args) -> int:
     progress = Progress(bars=not quiet, verbose=getattr(args, "verbose", False), lines=True)
     if args.draws < 1:
         raise ParameterError(f"--draws must be at least 1, got {args.draws}")
-    if not quiet:
-        print(f"coverplan: {time_told(route, args, width)}", file=sys.stderr, flush=True)
     sim = simulate(route, scene, out, conditions=args.conditions, draws=args.draws, texture=args.texture,
                    matching=args.matching, mapper=args.mapper, spatial_neighbours=args.neighbours,
-                   max_features=args.max_features, width=width, threads=args.threads, progress=progress)
+                   max_features=args.max_features, width=width, threads=args.threads, progress=progress,
+                   announce=None if quiet else
+                   lambda: print(f"coverplan: {time_told(route, args, width)}", file=sys.stderr, flush=True))
     sim.save(out / "simulation.json")
     if getattr(args, "json", False):
         print(json.dumps(sim.to_dict(), indent=1, default=float))

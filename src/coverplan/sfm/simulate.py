@@ -266,7 +266,7 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
              texture: str = "noise", matching: str = "spatial", width: int = DEFAULT_WIDTH_PX, threads: int = -1, seed: int = 0,
              exhaustive_limit: int = 80, spatial_neighbours: int = SPATIAL_NEIGHBOURS,
              judge_spacing: float = JUDGE_SPACING_M, mapper: str = "auto", max_features: int = MAX_FEATURES,
-             progress: Progress | None = None) -> Simulation:
+             progress: Progress | None = None, announce=None) -> Simulation:
     """Render the route's photos as a drone would take them, reconstruct them, judge the result.
 
     Parameters
@@ -309,6 +309,9 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
         Spacing (m) of the samples the model is judged on.
     progress : Progress, optional
         Bars and stage timings.
+    announce : callable, optional
+        Called once the settings are checked, before the long work (the CLI tells the estimated
+        time there).
 
     Returns
     -------
@@ -348,6 +351,8 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
     if len(route.shots) < 2:
         raise ParameterError(f"the route has {len(route.shots)} photo(s); SfM needs at least 2")
     progress = progress or Progress()
+    if announce is not None:
+        announce()
     out_dir = Path(out_dir)
     folders = [out_dir] if draws == 1 else [out_dir / f"draw-{k + 1}" for k in range(draws)]
     runs = []
