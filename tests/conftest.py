@@ -19,14 +19,61 @@ def _group(item) -> str | None:
     return (mark.args[0] if mark.args else mark.kwargs.get("name")) if mark else None
 
 
-# The fast tier (``pytest -m "not slow_sim"``) leaves out the long groups and every test that
-# renders photos and runs COLMAP, or runs the benchmark scripts.
+# The fast tier (``pytest -m "not slow_sim"``) leaves out the long groups, every test that
+# renders photos and runs COLMAP or runs the benchmark scripts, and the tests that took 3 s or
+# more on 2 cores (node ids, or their prefix for every parametrisation), so that it answers in
+# under 2 minutes with one test of each concern kept.
 SLOW_SIM_MODULES = ("test_simulate", "test_check", "test_benchmarks")
+SLOW_SIM_TESTS = (
+    "test_airspace.py::test_a_tower_taller_than_the_ceiling_is_flown_below_it",
+    "test_api_docs.py::test_the_api_reference_builds_without_a_warning",
+    "test_batch.py::test_an_incomplete_folder_is_not_taken_for_done",
+    "test_batch.py::test_failures_are_rows_and_the_rest_is_planned",
+    "test_batch.py::test_rerun_completes_only_the_missing_buildings",
+    "test_city.py::test_lod3_building_with_openings_plans_and_is_covered",
+    "test_existing.py::test_an_exported_mission_and_tagged_photos_count_as_the_route_does",
+    "test_export.py::test_qgc_plan",
+    "test_flights.py::test_a_gimbal_that_cannot_look_up_never_points_up",
+    "test_flights.py::test_flights_split_to_fit_a_mission_item_limit",
+    "test_flights.py::test_one_flight_when_it_fits_the_battery",
+    "test_flights.py::test_plan_exporting_for_px4_keeps_each_flight_within_500_items",
+    "test_framing.py::test_narrow_tower_faces_get_framed_views_from_closer_in",
+    "test_lanes.py::test_the_tour_trades_a_little_path_for_fewer_reversals",
+    "test_passing.py::test_every_flight_reaches_a_mavsdk_autopilot",
+    "test_plan.py::test_sample_scene_is_covered_and_safe[courtyard]",
+    "test_plan.py::test_sample_scene_is_covered_and_safe[fig411]",
+    "test_plan.py::test_sample_scene_is_covered_and_safe[ring]",
+    "test_readme.py::test_readme_examples_match_a_fresh_run",
+    "test_reconstructability.py::test_braced_ring_has_no_cut_photo",
+    "test_reconstructability.py::test_faces_links_are_links_sample_by_sample",
+    "test_reconstructability.py::test_links_hold_on_the_evaluators_samples",
+    "test_reconstructability.py::test_overhang_undersides_are_seen_as_squarely_as_the_gimbal_allows",
+    "test_report_flights.py::test_flight_files_are_judged_together",
+    "test_report_flights.py::test_report_reads_missions_and_colours_each_flight",
+    "test_route_scene.py::test_city_building_obstacles_and_merge_are_recorded",
+    "test_safety.py::test_segment_queries_see_thin_obstacles_between_endpoints[fcl]",
+    "test_safety.py::test_segment_queries_see_thin_obstacles_between_endpoints[near]",
+    "test_sites.py::test_random_site_flies_safe_over_its_ground_and_clear_of_its_trees",
+    "test_terrain.py::test_hillside_house_keeps_the_security_distance_from_the_slope_in_3d",
+    "test_terrain.py::test_report_draws_the_ground_under_its_frame",
+    "test_terrain.py::test_segment_check_is_exact_on_random_ground",
+    "test_voxel.py::test_small_obstacle_between_slices_is_not_seen",
+    "test_zones.py::test_segment_test_agrees_with_dense_sampling",
+    "test_zones.py::test_the_geofence_reaches_the_autopilot",
+    "test_zones.py::test_the_street_is_never_entered",
+)
+
+
+def _slow_sim(item) -> bool:
+    if _group(item) in LONG_GROUPS or item.module.__name__.rpartition(".")[2] in SLOW_SIM_MODULES:
+        return True
+    node = item.nodeid.rpartition("tests/")[2]
+    return any(node == t or (node.startswith(t + "[") and "[" not in t) for t in SLOW_SIM_TESTS)
 
 
 def pytest_collection_modifyitems(config, items):
     for item in items:
-        if _group(item) in LONG_GROUPS or item.module.__name__.rpartition(".")[2] in SLOW_SIM_MODULES:
+        if _slow_sim(item):
             item.add_marker(pytest.mark.slow_sim)
     items.sort(key=lambda item: LONG_GROUPS.index(_group(item)) if _group(item) in LONG_GROUPS else len(LONG_GROUPS))
     if config.getoption("--slow"):

@@ -156,9 +156,9 @@ def test_global_mapper_rebuilds_the_same_flight(field, house, tmp_path):
     """COLMAP's global mapper (``--mapper global``) on the field draw's own matches: every photo
     in one model, aligned to where the photos were taken, the house rebuilt to the bar."""
     from coverplan.sfm.colmap import aligned_models, global_mapping_seconds, map_models
-    from coverplan.sfm.simulate import photo_names
     from coverplan.sfm.conditions import fly, get_conditions
     from coverplan.sfm.judge import judge_samples, reconstructed_surface
+    from coverplan.sfm.simulate import photo_names
     sim, out = field
     scene, route = house
     sparse = tmp_path / "sparse"
@@ -236,7 +236,7 @@ def test_without_pycolmap_simulate_says_how_to_get_it(monkeypatch, house, tmp_pa
 
 def test_large_flights_match_photos_that_see_the_same_surface():
     """Pairs for large flights come from what the photos see, not where the cameras are."""
-    from coverplan.sfm.colmap import covisible_pairs
+    from coverplan.sfm.pairs import covisible_pairs
     rng = np.random.default_rng(0)
     wall_a = rng.random((500, 3)) * [10, 0.1, 10]
     wall_b = rng.random((500, 3)) * [0.1, 10, 10] + [40, 0, 0]
@@ -305,7 +305,8 @@ def test_spatial_pairs_are_the_pairs_colmaps_spatial_matcher_takes(tmp_path, nei
     from PIL import Image
     from scipy.ndimage import gaussian_filter
 
-    from coverplan.sfm.colmap import extract_features, spatial_pairs, write_position_priors
+    from coverplan.sfm.colmap import extract_features, write_position_priors
+    from coverplan.sfm.pairs import spatial_pairs
     pycolmap.logging.minloglevel = 2
     rng = np.random.default_rng(neighbours)
     base = gaussian_filter(rng.random((120, 160)), 2.0)

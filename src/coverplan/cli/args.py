@@ -342,6 +342,9 @@ def add_simulate_args(p):
                    help=f"SIFT features per photo at most (default {MAX_FEATURES}, COLMAP's; fewer match and map "
                         "faster)")
     add_mapper_arg(p)
+    p.add_argument("--lens", default="pinhole", choices=("pinhole", "drone"),
+                   help="pinhole (default): photos without distortion; drone: drawn through the drone profile's "
+                        "own lens distortion (raw photos, as the camera takes them with its correction off)")
     p.add_argument("--texture", default="noise", choices=("noise", "cells"),
                    help="texture family under field/harsh conditions: noise (value noise) or cells (cellular stone)")
     p.add_argument("--threads", type=int, default=-1, metavar="N", help="threads for SfM (default: all cores)")

@@ -79,7 +79,7 @@ def simulate_route(route, scene, out_dir, args) -> int:
     sim = simulate(route, scene, out, conditions=args.conditions, draws=args.draws, texture=args.texture,
                    matching=args.matching, mapper=args.mapper, spatial_neighbours=args.neighbours,
                    max_features=args.max_features, width=width, threads=args.threads, progress=progress,
-                   announce=None if quiet else
+                   lens=getattr(args, "lens", "pinhole"), announce=None if quiet else
                    lambda: print(f"coverplan: {time_told(route, args, width)}", file=sys.stderr, flush=True))
     sim.save(out / "simulation.json")
     if getattr(args, "json", False):

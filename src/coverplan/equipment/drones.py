@@ -13,6 +13,7 @@ from dataclasses import dataclass, field, replace
 
 from coverplan.equipment.camera import PRESETS, Camera
 from coverplan.equipment.flighttime import FlightModel
+from coverplan.equipment.lens import PINHOLE, Lens
 from coverplan.errors import ParameterError
 
 RESERVE = 0.30  # of the rated flight time; DJI apps warn at 30 % battery by default
@@ -86,6 +87,7 @@ class DroneProfile:
     heading_error_deg: float = HEADING_ERROR_DEG
     gimbal_error_deg: float = GIMBAL_ERROR_DEG
     shutter_s: float = SURVEY_SHUTTER_S
+    lens: Lens = PINHOLE  # the distortion of its photos as the camera writes them (simulate --lens drone)
 
     @property
     def usable_flight_min(self) -> float:
@@ -159,6 +161,11 @@ DRONES: dict[str, DroneProfile] = {
         # Hover accuracy +-1.5 m horizontal, +-0.5 m vertical with GPS: DJI Phantom 4 Pro V2.0
         # specifications.
         position=PositionAccuracy(1.5, 0.5, "gnss"),
+        # The 1" 20 MP camera's raw lens with in-camera correction off, as a Phantom 4 RTK (the
+        # same camera and lens) records it in every photo's DewarpData XMP tag: strong barrel,
+        # about 14 % at the corners. DJI publishes no figure for the Pro itself.
+        lens=Lens(-0.269478, 0.115681, -0.0000875619, -0.000306177, -0.0357628,
+                  source="DewarpData of a Phantom 4 RTK photo"),
         sources=("DJI Phantom 4 Pro V2.0 specifications", "Litchi mission hub documentation")),
 }
 

@@ -23,11 +23,12 @@ from coverplan.errors import InputFileError, ParameterError
 from coverplan.flight.missions import AMSL, TAKEOFF, Mission, mission_to_route
 from coverplan.geometry import geo
 from coverplan.progress import Progress
+from coverplan.sfm.cameras import CameraGroup, photo_groups
 from coverplan.sfm.colmap import SPATIAL_NEIGHBOURS, require_pycolmap, run_sfm
 from coverplan.sfm.judge import judge_samples, reconstructed_surface
 from coverplan.sfm.photo_cover import photo_cover, point_ceiling
 from coverplan.sfm.photos import PhotoTags, photo_files, raw_files, read_photo, whole_image
-from coverplan.sfm.render import PhotoCamera, ground_plane
+from coverplan.sfm.render import ground_plane
 from coverplan.sfm.simulate import CLASS_MIN, JUDGE_SPACING_M, REGISTERED_MIN, SURFACE_MIN, Simulation
 
 ICP_ROUNDS = 15
@@ -55,6 +56,7 @@ class Check:
     unjudged: str = ""  # why the surface could not be judged; "" when it was
     photo_cover: dict = field(default_factory=dict)  # where the sparse model is too thin: what the photos see
     point_ceiling_pct: float = 100.0  # the most surface the sparse points could reach at 0.2 m
+    cameras: list = field(default_factory=list)  # each camera COLMAP was given: what it is, how many photos
 
     @property
     def thin(self) -> bool:
@@ -77,6 +79,7 @@ class Check:
                 ("left out", ", ".join(n for n, _ in self.left_out[:8])
                  + (f" and {len(self.left_out) - 8} more" if len(self.left_out) > 8 else "") or "none"),
                 ("heights", self.route.extra.get("heights", "") or "-"),
+                ("camera" if len(self.cameras) < 2 else "cameras", "; ".join(self.cameras) or "-"),
                 ("aligned to the scene", self._alignment())]
         if self.gnss_residual_m:
             residual = self.gnss_residual_m
@@ -115,7 +118,7 @@ class Check:
             else "through the GNSS tags only"
 
     def to_dict(self) -> dict:
-        return {"photos_used": self.names, "left_out": [{"photo": n, "why": w} for n, w in self.left_out],
+        return {"photos_used": self.names, "cameras": self.cameras, "left_out": [{"photo": n, "why": w} for n, w in self.left_out],
                 "icp_shift_m": self.icp_shift_m, "fitted": self.fitted, "missing_m2": self.missing,
                 "gnss_residual_m": self.gnss_residual_m, "judged": not self.unjudged,
                 "why_not_judged": self.unjudged or None, **self.simulation.to_dict(),
@@ -209,21 +212,13 @@ def photo_heights(tags: list[PhotoTags], absolute_heights: bool) -> tuple[np.nda
     return alt, ref, "; ".join(parts)
 
 
-def photo_camera(tags: list[PhotoTags], folder: Path) -> tuple[PhotoCamera, Camera]:
-    """The one camera of the photos: SfM's pinhole and a Camera for the route."""
-    sizes = {(t.width, t.height) for t in tags}
-    if len(sizes) > 1:
-        raise InputFileError(folder, f"holds photos of {len(sizes)} sizes ({', '.join(f'{w}x{h}' for w, h in sorted(sizes))}); "
-                                     "check one camera's photos at a time")
-    focal = np.array([t.focal_px for t in tags])
-    if not np.isfinite(focal).any():
-        raise InputFileError(folder, "its photos give no focal length (EXIF FocalLength with FocalPlaneXResolution, "
-                                     "or FocalLengthIn35mmFilm)")
-    fx = float(np.median(focal[np.isfinite(focal)]))
-    width, height = sizes.pop()
-    mm = float(np.nanmedian([t.focal_mm for t in tags])) if np.isfinite([t.focal_mm for t in tags]).any() else 10.0
-    camera = Camera(width / fx * mm, height / fx * mm, mm, width, height, name="from the photos' EXIF")
-    return PhotoCamera(width, height, fx, fx), camera
+def route_camera(group: CameraGroup, tags: list[PhotoTags]) -> Camera:
+    """The camera of a group of photos as the route takes it (size and field of view)."""
+    photo = group.photo
+    mm = [t.focal_mm for t in tags if t.name in set(group.names) and np.isfinite(t.focal_mm)]
+    mm = float(np.median(mm)) if mm else 10.0
+    return Camera(photo.width / photo.fx * mm, photo.height / photo.fy * mm, mm, photo.width, photo.height,
+                  name="from the photos' EXIF")
 
 
 def photos_route(folder, scene, gsd: float, security: float, progress: Progress | None = None, least: int = 1):
@@ -237,8 +232,8 @@ def photos_route(folder, scene, gsd: float, security: float, progress: Progress 
         The photos used, in name order.
     left_out : list of (name, why)
         Photos without a position.
-    photo : PhotoCamera
-        The camera as SfM takes it.
+    cameras : list of CameraGroup
+        The photos' cameras as SfM takes them, the most used first.
     """
     progress = progress or Progress()
     folder = Path(folder)
@@ -266,13 +261,14 @@ def photos_route(folder, scene, gsd: float, security: float, progress: Progress 
     if len(tags) < least:
         raise InputFileError(folder, f"has {len(tags)} photo(s) with a GPS position; "
                                      + ("SfM needs at least 2" if least >= 2 else "at least one is needed"))
-    photo, camera = photo_camera(tags, folder)
+    cameras = photo_groups(tags, folder)
+    camera = route_camera(cameras[0], tags)
     frame = scene.frame
     absolute = bool(frame.get("vertical_crs") or frame.get("geodetic_origin"))
     route = mission_to_route(photos_as_mission(tags, absolute, "photos"), scene, camera, gsd, security)
     route.extra["source"] = f"{len(tags)} photos in {folder}"
     route.extra["heights"] = next((n.split(": ", 1)[1] for n in route.extra["notes"] if n.startswith("heights: ")), "")
-    return route, tags, left_out, photo
+    return route, tags, left_out, cameras
 
 
 def fit_to_scene(points: np.ndarray, surfaces: trimesh.Trimesh, rounds: int = ICP_ROUNDS,
@@ -356,7 +352,8 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
     require_pycolmap("check")
     progress = progress or Progress()
     folder = Path(photos_dir)
-    route, tags, left_out, photo = photos_route(folder, scene, gsd, security, progress, least=2)
+    route, tags, left_out, cameras = photos_route(folder, scene, gsd, security, progress, least=2)
+    photo = cameras[0].photo
     names = [t.name for t in tags]
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -365,7 +362,7 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
     sfm = run_sfm(folder, names, photo, gnss, [], out_dir / "colmap", exhaustive_limit=exhaustive_limit,
                   threads=threads, progress=progress, matching="spatial", recorded_positions=gnss,
                   neighbour_distance=max(0.5 * spread, 10.0), neighbours=spatial_neighbours, mapper=mapper,
-                  working_px=working_px)
+                  working_px=working_px, cameras=cameras)
     best = sfm.largest
     pts = best.points if best is not None and best.aligned else np.zeros((0, 3))
     shift, fitted, apart, fit_matrix = 0.0, False, None, None
@@ -415,7 +412,8 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
         area = surface["class_area_m2"]
         missing = {c: float(area.get(c, 0.0) * (1.0 - v / 100.0)) for c, v in cover["by_class_pct"].items()}
     result = Check(sim, route, names, left_out, shift, fitted, missing, residual, unjudged=unjudged,
-                   photo_cover=cover, point_ceiling_pct=ceiling)
+                   photo_cover=cover, point_ceiling_pct=ceiling,
+                   cameras=[f"{g.label} ({len(g.names)} photos)" for g in cameras])
     if result.unjudged:
         progress.note(f"no verdict on the surface: {result.unjudged}")
     _write(result, scene, samples, missing_mask, classes, out_dir)

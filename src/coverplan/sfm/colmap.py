@@ -1,6 +1,7 @@
 """Structure-from-Motion on simulated photos with pycolmap (CPU), and its alignment.
 
-Known intrinsics (one PINHOLE camera, never refined), SIFT features at COLMAP's defaults,
+One COLMAP camera per camera of the photos (sfm/cameras.py: known and fixed for rendered
+photos, refined in bundle adjustment for real ones), SIFT features at COLMAP's defaults,
 exhaustive matching for small flights; for large ones, the pairs COLMAP's spatial matcher
 takes from the photos' GNSS tags (or each photo's co-visible partners); COLMAP's incremental
 or global mapper. The largest model is aligned to the true camera centres by a similarity
@@ -19,6 +20,8 @@ import numpy as np
 
 from coverplan.errors import ParameterError, SfmError
 from coverplan.progress import clock_bar
+from coverplan.sfm.cameras import CameraGroup
+from coverplan.sfm.pairs import spatial_pairs
 
 INSTALL_HINT = "{command} needs pycolmap; install it with: pip install 'coverplan[sfm]'"
 
@@ -66,38 +69,6 @@ class SfmResult:
     @property
     def largest(self) -> SfmModel | None:
         return self.models[0] if self.models else None
-
-
-def covisible_pairs(seen: list[np.ndarray], cell: float, k: int) -> list[tuple[int, int]]:
-    """Pairs of photos worth matching in a large flight: for each photo, the ``k`` photos that
-    see most of the same scene (points its pixels hit, counted in cells of ``cell`` metres).
-
-    Nearest camera positions are not enough: a flight round a tall block has photos a few
-    metres apart looking at different walls, and photos of one wall from far apart."""
-    import scipy.sparse as sp
-
-    rows, cols = [], []
-    keys: dict = {}
-    for i, pts in enumerate(seen):
-        if len(pts) == 0:
-            continue
-        cells = np.unique(np.floor(pts / cell).astype(np.int64), axis=0)
-        ids = np.array([keys.setdefault(tuple(v), len(keys)) for v in cells])
-        rows.append(np.full(len(ids), i))
-        cols.append(ids)
-    n = len(seen)
-    if not rows:
-        return []
-    m = sp.csr_matrix((np.ones(sum(map(len, rows))), (np.concatenate(rows), np.concatenate(cols))),
-                      shape=(n, len(keys)))
-    shared = (m @ m.T).toarray()
-    np.fill_diagonal(shared, 0)
-    pairs = set()
-    for i in range(n):
-        best = np.argsort(-shared[i])[:k]
-        for j in best[shared[i, best] > 0]:
-            pairs.add((min(i, int(j)), max(i, int(j))))
-    return sorted(pairs)
 
 
 MATCHINGS = ("spatial", "covisible")
@@ -166,9 +137,10 @@ def set_options(options, overrides: dict | None) -> None:
 
 
 def _map(pycolmap, mapper: str, database: Path, image_dir: Path, sparse: Path, threads: int, seed: int,
-         tick, overrides: dict | None = None) -> dict:
-    """COLMAP's models from the matched database, the known intrinsics never refined.
-    ``overrides``: options set after ours (``set_options``), for experiments."""
+         tick, overrides: dict | None = None, refine: bool = False) -> dict:
+    """COLMAP's models from the matched database; ``refine``: bundle adjustment refines the
+    focal lengths and distortion (never the principal point), else the intrinsics stay as
+    given. ``overrides``: options set after ours (``set_options``), for experiments."""
     glob = mapper == "global"
     options = pycolmap.GlobalPipelineOptions() if glob else pycolmap.IncrementalPipelineOptions()
     options.num_threads = threads
@@ -178,11 +150,11 @@ def _map(pycolmap, mapper: str, database: Path, image_dir: Path, sparse: Path, t
     if glob:
         options.mapper.global_positioning.use_gpu = False
         ba = options.mapper.bundle_adjustment
-        ba.refine_focal_length = ba.refine_principal_point = ba.refine_extra_params = False
+        ba.refine_focal_length = ba.refine_extra_params = bool(refine)
+        ba.refine_principal_point = False
     else:
-        options.ba_refine_focal_length = False
+        options.ba_refine_focal_length = options.ba_refine_extra_params = bool(refine)
         options.ba_refine_principal_point = False
-        options.ba_refine_extra_params = False
     set_options(options, overrides)
     if glob:
         return pycolmap.global_mapping(database, image_dir, sparse, options=options)
@@ -191,17 +163,17 @@ def _map(pycolmap, mapper: str, database: Path, image_dir: Path, sparse: Path, t
 
 
 def map_models(pycolmap, mapper: str, database: Path, image_dir: Path, sparse: Path, threads: int, seed: int,
-               photos: int, progress=None) -> dict:
+               photos: int, progress=None, refine: bool = False) -> dict:
     """``_map`` under a progress bar: one step per photo the incremental mapper registers; for
     the global mapper, which reports nothing while it runs, seconds against its estimated time
     (``global_mapping_seconds``)."""
     if mapper == "incremental":
         with _stage(progress, "SfM mapping", total=photos) as tick:
-            return _map(pycolmap, mapper, database, image_dir, sparse, threads, seed, tick)
+            return _map(pycolmap, mapper, database, image_dir, sparse, threads, seed, tick, refine=refine)
     estimate = global_mapping_seconds(photos, threads)
     with _stage(progress, "SfM mapping (time estimated)", total=estimate, unit="s") as tick, \
             clock_bar(tick, estimate):
-        return _map(pycolmap, mapper, database, image_dir, sparse, threads, seed, tick)
+        return _map(pycolmap, mapper, database, image_dir, sparse, threads, seed, tick, refine=refine)
 
 
 def write_position_priors(pycolmap, database: Path, names: list[str], positions: np.ndarray, sigma_m: float) -> None:
@@ -247,7 +219,7 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
             work_dir: Path, *, exhaustive_limit: int = 80, max_features: int = MAX_FEATURES, threads: int = -1,
             seed: int = 0, progress=None, matching: str = "covisible", recorded_positions: np.ndarray | None = None,
             neighbour_distance: float = 100.0, neighbours: int = SPATIAL_NEIGHBOURS,
-            mapper: str = "auto", working_px: int | None = None) -> SfmResult:
+            mapper: str = "auto", working_px: int | None = None, cameras: list | None = None) -> SfmResult:
     """Features, matching and mapping over the photos ``names`` in ``image_dir``.
 
     Up to ``exhaustive_limit`` photos every pair is matched. Above it, ``matching`` "spatial"
@@ -258,7 +230,9 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     each, their bars following the rows COLMAP writes. ``mapper``: COLMAP's incremental
     mapper, its global one (GLOMAP: rotation averaging, then all positions at once), or
     "auto" (``pick_mapper``). ``working_px``: features are found on the photos scaled down to
-    this longest side (None: full size); COLMAP scales the keypoints back."""
+    this longest side (None: full size); COLMAP scales the keypoints back. ``cameras``: the
+    photos' CameraGroups (sfm/cameras.py; default: all taken with ``photo``, known exactly);
+    intrinsics are refined when a group asks for it."""
     import time
 
     pycolmap = require_pycolmap()
@@ -273,19 +247,22 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     seconds = {}
 
     t = time.perf_counter()
-    reader = pycolmap.ImageReaderOptions()
-    reader.camera_model = "PINHOLE"
-    reader.camera_params = f"{photo.fx},{photo.fy},{photo.cx},{photo.cy}"
+    cameras = cameras or [CameraGroup.known(photo, names)]
     extraction = pycolmap.FeatureExtractionOptions()
     extraction.num_threads = threads
-    extraction.max_image_size = max(photo.width, photo.height) if working_px is None else \
-        min(max(photo.width, photo.height), int(working_px))
+    longest = max(max(g.photo.width, g.photo.height) for g in cameras)
+    extraction.max_image_size = longest if working_px is None else min(longest, int(working_px))
     extraction.sift.max_num_features = max_features
     # The rest of SIFT stays at COLMAP's defaults, as a user's own COLMAP run would have it.
     # Starting at octave 0 instead of -1 (no upsampling) found a quarter of the features and
     # left about 10 % of a well-photographed wall without a point within 0.2 m.
     with _colmap_failure("feature extraction", database), _stage(progress, "SfM features", total=len(names)) as tick:
-        extract_features(pycolmap, database, image_dir, names, reader, extraction, tick)
+        done = 0
+        for group in cameras:  # one call per camera: each call makes its camera from its options
+            reader = pycolmap.ImageReaderOptions()
+            reader.camera_model, reader.camera_params = group.model, group.colmap_params
+            extract_features(pycolmap, database, image_dir, group.names, reader, extraction, tick, base=done)
+            done += len(group.names)
     seconds["features"] = time.perf_counter() - t
 
     t = time.perf_counter()
@@ -320,7 +297,8 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     sparse = work_dir / "sparse"
     sparse.mkdir()
     with _colmap_failure(f"{mapper} mapping", database):
-        recs = map_models(pycolmap, mapper, database, image_dir, sparse, threads, seed, len(names), progress)
+        recs = map_models(pycolmap, mapper, database, image_dir, sparse, threads, seed, len(names), progress,
+                          refine=any(g.refine for g in cameras))
     seconds["mapping"] = time.perf_counter() - t
     for k, rec in enumerate(sorted(recs.values(), key=lambda r: -r.num_reg_images())):
         (sparse / str(k)).mkdir(exist_ok=True)
@@ -376,7 +354,7 @@ def _rows(database: Path, table: str) -> int | None:
     return int(out.stdout) if out.returncode == 0 and out.stdout.strip().isdigit() else None
 
 
-def polled(pycolmap, call, database: Path, table: str, total: int, tick) -> None:
+def polled(pycolmap, call, database: Path, table: str, total: int, tick, base: int = 0) -> None:
     """Run ``call(token)`` (one pycolmap call that fills ``table`` of ``database``, given a
     pycolmap CancellationToken) in a thread and ``tick`` as its rows appear, up to ``total``.
     One call, not many small ones: on 47 photos, 20 calls took 53 s to extract features and
@@ -401,6 +379,7 @@ def polled(pycolmap, call, database: Path, table: str, total: int, tick) -> None
         while worker.is_alive():
             worker.join(POLL_S)
             rows = _rows(database, table) if database.exists() else None
+            rows = None if rows is None else rows - base
             if rows is not None and min(rows, total) > shown:
                 tick(min(rows, total) - shown)
                 shown = min(rows, total)
@@ -415,41 +394,13 @@ def polled(pycolmap, call, database: Path, table: str, total: int, tick) -> None
 
 
 def extract_features(pycolmap, database: Path, image_dir: Path, names: list[str], reader, extraction,
-                     tick=lambda _n=1: None) -> None:
+                     tick=lambda _n=1: None, base: int = 0) -> None:
     """SIFT features of the photos ``names`` into ``database``, on one camera (the photos share
-    the intrinsics), ``tick`` per photo done."""
+    the intrinsics ``reader`` gives), ``tick`` per photo done; ``base``: photos already in it."""
     polled(pycolmap, lambda token: pycolmap.extract_features(
         database, image_dir, image_names=list(names), camera_mode=pycolmap.CameraMode.SINGLE,
         reader_options=reader, extraction_options=extraction, device=pycolmap.Device.cpu,
-        cancellation_token=token), Path(database), "keypoints", len(names), tick)
-
-
-def spatial_pairs(positions: np.ndarray, neighbours: int, max_distance: float) -> list[tuple[int, int]]:
-    """The pairs COLMAP's spatial matcher takes: each photo with its ``neighbours`` nearest
-    other photos by recorded position that lie within ``max_distance`` metres.
-
-    Parameters
-    ----------
-    positions : (n, 3) float
-        Recorded positions (GNSS tags in the local frame).
-
-    Returns
-    -------
-    list of (i, j) int, i < j
-    """
-    from scipy.spatial import cKDTree
-
-    positions = np.asarray(positions, dtype=float).reshape(-1, 3)
-    n = len(positions)
-    k = min(int(neighbours) + 1, n)  # the photo itself comes first
-    if k < 2:
-        return []
-    dist, nn = cKDTree(positions).query(positions, k=k, distance_upper_bound=float(max_distance))
-    i = np.repeat(np.arange(n), k)
-    j, d = nn.ravel(), dist.ravel()
-    ok = np.isfinite(d) & (j != i) & (j < n)
-    pairs = np.unique(np.sort(np.stack([i[ok], j[ok]], axis=1), axis=1), axis=0)
-    return [(int(a), int(b)) for a, b in pairs]
+        cancellation_token=token), Path(database), "keypoints", len(names), tick, base)
 
 
 def _match_pairs(pycolmap, database: Path, work_dir: Path, names: list[str], pairs: list[tuple[int, int]],

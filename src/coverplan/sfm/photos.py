@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 from lxml import etree
 
+from coverplan.equipment.lens import PINHOLE, Lens
 from coverplan.errors import InputFileError
 from coverplan.geometry.geo import grid_convergence, to_lonlat
 from coverplan.sfm.render import PhotoCamera, ideal_renderer
@@ -57,6 +58,9 @@ class PhotoTags:
     pixels_per_mm: float = np.nan  # on the sensor (EXIF focal-plane resolution)
     rtk_flag: int = -1  # DJI RtkFlag: 0 no RTK, 16 single point, 34 float, 50 fixed; -1 not given
     rtk_std_m: tuple = (np.nan, np.nan, np.nan)  # DJI RtkStdLon, RtkStdLat, RtkStdHgt
+    camera_model: str = ""  # EXIF Model
+    dewarp_data: str = ""  # DJI DewarpData: the lens calibration, "date;fx,fy,cx,cy,k1,k2,p1,p2,k3"
+    optical_centre_x: float = np.nan  # DJI CalibratedOpticalCenterX, px: half the calibrated width
 
     @property
     def rtk_fixed(self) -> bool:
@@ -91,6 +95,7 @@ def read_photo(path) -> PhotoTags:
     except (UnidentifiedImageError, OSError) as exc:
         raise InputFileError(path, f"is not a readable image ({exc})") from None
     tags = PhotoTags(path.name, int(width), int(height))
+    tags.camera_model = str(exif.get(0x0110, "") or "").strip("\x00 ")
     gps = exif.get_ifd(_GPS)
     if 2 in gps and 4 in gps:
         tags.lat = _degrees(gps[2], gps.get(1, "N"), "S")
@@ -180,6 +185,8 @@ def _read_xmp(tags: PhotoTags, xmp, path: Path) -> None:
         tags.lon = number("GpsLongitude", "GPSLongitude", "GpsLongtitude", "GPSLongtitude", "Longitude")
     tags.rtk_flag = int(number("RtkFlag")) if np.isfinite(number("RtkFlag")) else -1
     tags.rtk_std_m = (number("RtkStdLon"), number("RtkStdLat"), number("RtkStdHgt"))
+    tags.dewarp_data = values.get("DewarpData", "").strip()
+    tags.optical_centre_x = number("CalibratedOpticalCenterX")
 
 
 def write_photo(path, image: np.ndarray, tags: PhotoTags, quality: int = 95) -> Path:
@@ -195,7 +202,7 @@ def write_photo(path, image: np.ndarray, tags: PhotoTags, quality: int = 95) -> 
         return (IFDRational(d), IFDRational(m), IFDRational(int(round(s * 1e6)), 1_000_000))
 
     exif = Image.Exif()
-    exif[0x010F], exif[0x0110] = "coverplan", "rendered"
+    exif[0x010F], exif[0x0110] = "coverplan", tags.camera_model or "rendered"
     gps = {}  # a photo without a fix carries no GPS position, as a camera without one writes it
     if np.isfinite(tags.lat) and np.isfinite(tags.lon):
         gps = {1: "N" if tags.lat >= 0 else "S", 2: dms(tags.lat), 3: "E" if tags.lon >= 0 else "W",
@@ -218,6 +225,10 @@ def write_photo(path, image: np.ndarray, tags: PhotoTags, quality: int = 95) -> 
              "GimbalPitchDegree": tags.pitch_deg, "RelativeAltitude": tags.relative_altitude_m,
              "AbsoluteAltitude": tags.absolute_altitude_m}
     described = " ".join(f'drone-dji:{k}="{v:+.3f}"' for k, v in attrs.items() if np.isfinite(v))
+    if tags.dewarp_data:  # as DJI writes it: the calibration, and the centre it was made about
+        described += (f' drone-dji:DewarpData="{tags.dewarp_data}" drone-dji:DewarpFlag="0"'
+                      f' drone-dji:CalibratedOpticalCenterX="{tags.width / 2.0:.6f}"'
+                      f' drone-dji:CalibratedOpticalCenterY="{tags.height / 2.0:.6f}"')
     xmp = (f'<x:xmpmeta xmlns:x="adobe:ns:meta/"><rdf:RDF xmlns:rdf="http://www.w3.org/1999/02/22-rdf-syntax-ns#">'
            f'<rdf:Description rdf:about="" xmlns:drone-dji="{DJI_NS}" {described}/></rdf:RDF></x:xmpmeta>')
     Image.fromarray(np.asarray(image, dtype=np.uint8)).save(path, exif=exif.tobytes(), xmp=xmp.encode("utf-8"),
@@ -274,14 +285,17 @@ def whole_image(path) -> bool:
 
 
 def write_flight_photos(route, scene, folder, width: int = 1024, seed: int = 0, shots=None,
-                        progress=None) -> list[Path]:
+                        progress=None, lens: Lens = PINHOLE, dewarp_data: bool = True) -> list[Path]:
     """Render the route's photos (``simulate``'s ideal renderer, same seed: the same pictures)
     and write them as JPEGs tagged as a DJI drone tags its own: GPS position, altitude above
     the take-off point and above sea level, gimbal yaw and pitch, focal length and the
-    sensor's pixel size. ``shots``: indices into ``route.shots`` to write (default all)."""
+    sensor's pixel size. ``shots``: indices into ``route.shots`` to write (default all).
+    ``lens``: the photos are drawn through it and, with ``dewarp_data``, carry its calibration
+    as DJI's DewarpData tag (in the written photo's pixels)."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
-    photo = PhotoCamera.of(route.camera, width)
+    photo = PhotoCamera.of(route.camera, width, lens)
+    dewarp = lens.dewarp_data(photo.fx, photo.fy) if dewarp_data and not lens.is_pinhole else ""
     renderer = ideal_renderer(scene, photo, route.d_opt, route.security, seed=seed)
     rows = route.shots if shots is None else route.shots[np.asarray(shots, dtype=np.int64)]
     p = route.positions[rows]
@@ -298,7 +312,7 @@ def write_flight_photos(route, scene, folder, width: int = 1024, seed: int = 0, 
                          absolute_altitude_m=float(h[k]) if absolute else np.nan,
                          relative_altitude_m=float(p[k, 2] - route.takeoff_z), heading_deg=float(heading[k]),
                          pitch_deg=float(route.pitch_deg[row]), focal_mm=route.camera.focal_length_mm,
-                         pixels_per_mm=pixels_per_mm)
+                         pixels_per_mm=pixels_per_mm, dewarp_data=dewarp)
         written.append(write_photo(folder / tags.name, image, tags))
         if progress is not None:
             progress(1)

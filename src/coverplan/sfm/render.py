@@ -23,6 +23,7 @@ import numpy as np
 import trimesh
 from scipy import ndimage
 
+from coverplan.equipment.lens import PINHOLE, Lens
 from coverplan.errors import ParameterError
 from coverplan.geometry.orientation import camera_axes
 from coverplan.geometry.raycast import RayCaster
@@ -34,12 +35,14 @@ _OCTAVES = 5
 
 @dataclass(frozen=True)
 class PhotoCamera:
-    """A pinhole camera with the route camera's field of view at a reduced resolution."""
+    """The route camera's field of view at a reduced resolution: a pinhole, or through ``lens``
+    (photos as a real lens draws them)."""
 
     width: int
     height: int
     fx: float
     fy: float
+    lens: Lens = PINHOLE
 
     @property
     def cx(self) -> float:
@@ -50,10 +53,10 @@ class PhotoCamera:
         return self.height / 2.0
 
     @classmethod
-    def of(cls, camera, width: int) -> "PhotoCamera":
+    def of(cls, camera, width: int, lens: Lens = PINHOLE) -> "PhotoCamera":
         width = int(width)
         height = max(8, int(round(width * camera.image_height_px / camera.image_width_px)))
-        return cls(width, height, width / (2.0 * camera.tan_half_hfov), height / (2.0 * camera.tan_half_vfov))
+        return cls(width, height, width / (2.0 * camera.tan_half_hfov), height / (2.0 * camera.tan_half_vfov), lens)
 
     def rays(self, heading_deg: float, pitch_deg: float) -> np.ndarray:
         """World directions (h*w, 3) through every pixel centre, row-major from the top left."""
@@ -61,11 +64,28 @@ class PhotoCamera:
         u = (np.arange(self.width) + 0.5 - self.cx) / self.fx
         v = (np.arange(self.height) + 0.5 - self.cy) / self.fy
         uu, vv = np.meshgrid(u, v)
+        if not self.lens.is_pinhole:  # each pixel sees along the ray the lens bends onto it
+            uu, vv = self.lens.undistort(np.column_stack([uu.ravel(), vv.ravel()])).T
         d = forward + uu.reshape(-1, 1) * right - vv.reshape(-1, 1) * up
         return d / np.linalg.norm(d, axis=1, keepdims=True)
 
     def gsd_at(self, distance: float) -> float:
         return float(distance) / self.fx
+
+    def pixel_scale(self) -> np.ndarray:
+        """(h*w,) how much each pixel is magnified against the pinhole at the photo's centre,
+        the smaller of the lens's radial and tangential scale there (1 for a pinhole; a barrel
+        lens squeezes more of the scene into each pixel towards the corners)."""
+        if self.lens.is_pinhole:
+            return np.ones(self.width * self.height)
+        u = (np.arange(self.width) + 0.5 - self.cx) / self.fx
+        v = (np.arange(self.height) + 0.5 - self.cy) / self.fy
+        r_d = np.hypot(*np.meshgrid(u, v)).ravel()
+        grid = np.linspace(0.0, float(r_d.max()) * 1.001 + 1e-3, 256)
+        r_u = self.lens.undistort(np.column_stack([grid, np.zeros_like(grid)]))[:, 0]
+        radial = np.gradient(grid, r_u)
+        tangential = np.where(r_u > 0, grid / np.maximum(r_u, 1e-12), 1.0)
+        return np.clip(np.interp(r_d, grid, np.minimum(radial, tangential)), 0.05, None)
 
 
 def ground_plane(scene, reach: float) -> trimesh.Trimesh:
@@ -134,6 +154,7 @@ class PhotoRenderer:
 
     def __init__(self, scene, photo: PhotoCamera, finest_texture_m: float, ground_reach: float, seed: int = 0):
         self.photo = photo
+        self.scale = photo.pixel_scale()
         self.finest = float(finest_texture_m)
         self.lattice = noise_lattice(seed)
         self.meshes = list(scene.meshes) + [ground_plane(scene, ground_reach)]
@@ -430,7 +451,7 @@ class FieldRenderer(PhotoRenderer):
         if len(hit):
             d = dirs[hit]
             cos_inc = -np.einsum("ij,ij->i", normal, d)
-            footprint = pixel_footprint(dist, cos_inc, self.photo.fx).astype(np.float32)
+            footprint = (pixel_footprint(dist, cos_inc, self.photo.fx) / self.scale[hit]).astype(np.float32)
             value, glass = self._material(pts, normal, footprint, mesh)
             lit = np.clip(normal @ sun, 0.0, None)
             facing = np.flatnonzero(lit > 0) if rng is not None else np.zeros(0, np.int64)

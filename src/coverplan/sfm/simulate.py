@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from coverplan.equipment.drones import DRONES, drone_of_route
+from coverplan.equipment.lens import PINHOLE, Lens
 from coverplan.errors import InputFileError, ParameterError
 from coverplan.progress import Progress
 from coverplan.sfm.colmap import (
@@ -22,12 +24,12 @@ from coverplan.sfm.colmap import (
     SPATIAL_NEIGHBOURS,
     check_mapper,
     check_matching,
-    covisible_pairs,
     require_pycolmap,
     run_sfm,
 )
 from coverplan.sfm.conditions import Conditions, fly, get_conditions
 from coverplan.sfm.judge import judge_samples, reconstructed_surface
+from coverplan.sfm.pairs import covisible_pairs
 from coverplan.sfm.render import (
     FieldRenderer,
     PhotoCamera,
@@ -257,6 +259,25 @@ def _points_path(path: Path) -> Path:
     return path.with_name(path.stem + ".points.ply")
 
 
+LENSES = ("pinhole", "drone")
+
+
+def photo_lens(kind: str, route) -> Lens:
+    """The lens ``simulate`` draws the route's photos through: a pinhole, or ("drone") the
+    distortion of the route's drone profile; a one-line error when the route has none."""
+    if kind not in LENSES:
+        raise ParameterError(f"unknown lens {kind!r}; choose one of {', '.join(LENSES)}")
+    if kind == "pinhole":
+        return PINHOLE
+    drone = drone_of_route(route)
+    with_lens = sorted(name for name, d in DRONES.items() if not d.lens.is_pinhole)
+    if drone is None or drone.lens.is_pinhole:
+        what = "names no drone profile" if drone is None else f"is for the {drone.label}, whose lens has no "                                                               "published distortion"
+        raise ParameterError(f"--lens drone: the route {what}; plan it with --drone {' / '.join(with_lens)}, "
+                             "or simulate with --lens pinhole")
+    return drone.lens
+
+
 DEFAULT_CONDITIONS = "field"
 RENDER_THREADS = 2
 DEFAULT_DRAWS = 3
@@ -266,7 +287,7 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
              texture: str = "noise", matching: str = "spatial", width: int = DEFAULT_WIDTH_PX, threads: int = -1, seed: int = 0,
              exhaustive_limit: int = 80, spatial_neighbours: int = SPATIAL_NEIGHBOURS,
              judge_spacing: float = JUDGE_SPACING_M, mapper: str = "auto", max_features: int = MAX_FEATURES,
-             progress: Progress | None = None, announce=None) -> Simulation:
+             lens: str = "pinhole", progress: Progress | None = None, announce=None) -> Simulation:
     """Render the route's photos as a drone would take them, reconstruct them, judge the result.
 
     Parameters
@@ -295,6 +316,9 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
         flights of more than ``colmap.GLOBAL_MAPPING_ABOVE`` photos.
     max_features : int
         SIFT features per photo (COLMAP's default 8192). Fewer match faster and rebuild less.
+    lens : {"pinhole", "drone"}
+        The photos drawn through a pinhole, or through the drone profile's own lens distortion
+        (``DroneProfile.lens``), reconstructed with that lens as COLMAP's FULL_OPENCV camera.
     width : int
         Width of the rendered photos in px (the field of view kept).
     threads : int
@@ -347,6 +371,7 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
     if int(spatial_neighbours) != spatial_neighbours or spatial_neighbours < 1:
         raise ParameterError(f"spatial neighbours (--neighbours) must be a whole number of at least 1, "
                              f"got {spatial_neighbours!r}")
+    lens_drawn = photo_lens(lens, route)
     route = route.with_existing_photos()  # planned around photos already taken: SfM gets old and new
     if len(route.shots) < 2:
         raise ParameterError(f"the route has {len(route.shots)} photo(s); SfM needs at least 2")
@@ -360,7 +385,7 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
         progress.note(f"draw {k + 1} of {draws} ({cond.name}, {texture} textures)")
         runs.append(_simulate_once(route, scene, folder, cond, texture, matching, width, threads, seed + k,
                                    exhaustive_limit, spatial_neighbours, judge_spacing, mapper, int(max_features),
-                                   progress))
+                                   progress, lens_drawn))
     worst = min(range(draws), key=lambda k: runs[k].severity)
     sim = runs[worst]
     sim.draws = [dict(r.summary(), seed=seed + k, folder=str(folders[k])) for k, r in enumerate(runs)]
@@ -370,11 +395,11 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
 
 def _simulate_once(route, scene, out_dir: Path, cond, texture: str, matching: str, width: int, threads: int, seed: int,
                    exhaustive_limit: int, spatial_neighbours: int, judge_spacing: float, mapper: str, max_features: int,
-                   progress: Progress) -> Simulation:
+                   progress: Progress, lens: Lens = PINHOLE) -> Simulation:
     images = out_dir / "images"
     images.mkdir(parents=True, exist_ok=True)
     shots = route.shots
-    photo = PhotoCamera.of(route.camera, width)
+    photo = PhotoCamera.of(route.camera, width, lens)
     d_opt = route.d_opt
     flown = fly(route, cond, seed=seed)
     if cond.physical_textures:
