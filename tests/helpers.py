@@ -3,12 +3,21 @@
 from __future__ import annotations
 
 import importlib.util
+import json
 from pathlib import Path
 
 import trimesh
 
 ROOT = Path(__file__).resolve().parents[1]
 MESHES = ROOT / "meshes"
+
+
+def strict_json(text: str):
+    """``text`` parsed as strict JSON: a NaN or Infinity (which Python writes and browsers,
+    jq and other languages refuse) fails the test."""
+    def refuse(constant):
+        raise AssertionError(f"{constant} in JSON output")
+    return json.loads(text, parse_constant=refuse)
 
 
 def box(x0, y0, z0, x1, y1, z1) -> trimesh.Trimesh:

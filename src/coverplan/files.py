@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import gzip
 import json
+import math
 import os
 import tempfile
 from pathlib import Path
@@ -20,6 +21,25 @@ def read_json(path, error=InputFileError):
         raise error(path, "is not UTF-8 text") from None
     except json.JSONDecodeError as exc:
         raise error(path, f"is not valid JSON ({exc.msg} at line {exc.lineno})") from None
+
+
+def finite(value):
+    """``value`` with every NaN or infinite float, however deep in dicts and lists, as None:
+    what strict JSON readers (browsers, jq, other languages) accept for "no value"."""
+    if isinstance(value, dict):
+        return {k: finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [finite(v) for v in value]
+    if hasattr(value, "tolist") and not isinstance(value, (str, bytes)):
+        return finite(value.tolist())
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def json_text(value, indent: int | None = 1) -> str:
+    """Strict JSON of ``value``: numpy numbers as numbers, NaN and infinities as null."""
+    return json.dumps(finite(value), indent=indent, allow_nan=False)
 
 
 def open_maybe_gzip(path, mode: str = "rb"):

@@ -6,13 +6,12 @@ from __future__ import annotations
 import csv
 import html
 import io
-import json
 from pathlib import Path
 
 import numpy as np
 import shapely
 
-from coverplan.files import write_atomic
+from coverplan.files import json_text, write_atomic
 from coverplan.geometry.geo import to_lonlat
 
 COLUMNS = ["id", "status", "shots", "path_length_m", "flight_time_min", "flights", "coverage_pct",
@@ -52,7 +51,7 @@ def _geojson(model, footprints, rows) -> str:
     doc = {"type": "FeatureCollection", "features": features}
     if not crs:
         doc["coordinates"] = f"{model.path.name}'s own (it names no CRS)"
-    return json.dumps(doc, default=float)
+    return json_text(doc, indent=None)
 
 
 def _to_lonlat(crs: str):

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import sys
 
 from coverplan.cli.args import (
@@ -17,6 +16,7 @@ from coverplan.cli.args import (
 )
 from coverplan.equipment.camera import check_positive
 from coverplan.evaluation import evaluate
+from coverplan.files import json_text
 from coverplan.io.zones import read_zones
 from coverplan.progress import Progress
 
@@ -35,7 +35,7 @@ def cmd_evaluate(args) -> int:
     with progress.stage("evaluate", total=len(route.shots), unit="shot") as update:
         ev = evaluate(route, scene, spacing=args.spacing, progress=update)
     if args.json:
-        print(json.dumps(ev.metrics, indent=1, default=float))
+        print(json_text(ev.metrics))
     else:
         print(ev.table())
     if args.strict:

@@ -3,12 +3,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 
 from coverplan.cli.args import add_scene_args, add_simulate_args, scene_for_route
 from coverplan.equipment.camera import check_positive
 from coverplan.errors import ParameterError
+from coverplan.files import json_text
 from coverplan.flight.route import Route
 from coverplan.progress import Progress
 from coverplan.sfm.simulate import simulate
@@ -83,7 +83,7 @@ def simulate_route(route, scene, out_dir, args) -> int:
                    lambda: print(f"coverplan: {time_told(route, args, width)}", file=sys.stderr, flush=True))
     sim.save(out / "simulation.json")
     if getattr(args, "json", False):
-        print(json.dumps(sim.to_dict(), indent=1, default=float))
+        print(json_text(sim.to_dict()))
     elif not getattr(args, "quiet", False):
         print(sim.table())
         print(f"written: {out / 'simulation.json'}, photos in {out / 'images'}")

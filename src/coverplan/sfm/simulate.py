@@ -18,6 +18,7 @@ import numpy as np
 from coverplan.equipment.drones import DRONES, drone_of_route
 from coverplan.equipment.lens import PINHOLE, Lens
 from coverplan.errors import InputFileError, ParameterError
+from coverplan.files import json_text
 from coverplan.progress import Progress
 from coverplan.sfm.colmap import (
     MAX_FEATURES,
@@ -227,7 +228,7 @@ class Simulation:
         import trimesh
 
         path = Path(path)
-        path.write_text(json.dumps(self.to_dict(), indent=1))
+        path.write_text(json_text(self.to_dict()))
         if len(self.model_points):
             trimesh.PointCloud(self.model_points).export(_points_path(path))
         return path
@@ -240,6 +241,9 @@ class Simulation:
         path = Path(path)
         try:
             d = json.loads(path.read_text())
+            nan = float("nan")  # written as null: no value
+            d["centre_error_m"] = {k: nan if v is None else v for k, v in d["centre_error_m"].items()}
+            d["reprojection_error_px"] = nan if d["reprojection_error_px"] is None else d["reprojection_error_px"]
             points_file = _points_path(path)
             pts = np.asarray(trimesh.load(points_file).vertices) if points_file.exists() else np.zeros((0, 3))
             return cls(d["photos"], d["registered"], d["registered_any"], d["models"], d["points"],
