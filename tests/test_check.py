@@ -3,6 +3,7 @@ reconstructed and judged; the side the flight left out is named."""
 
 from __future__ import annotations
 
+import base64
 import json
 from pathlib import Path
 
@@ -13,7 +14,7 @@ import trimesh
 from coverplan import get_camera, load_scene, plan
 from coverplan.cli import main
 from coverplan.sfm.photos import PhotoTags, read_photo, write_flight_photos, write_photo
-from tests.helpers import MESHES
+from tests.helpers import MESHES, strict_json
 
 ORIGIN = ["48.77", "9.18", "250"]  # the gabled house's frame on Earth (--geo-origin)
 
@@ -45,15 +46,21 @@ def test_check_finds_one_model_and_names_the_side_left_out(tmp_path, capsys):
     write_flight_photos(route, scene, folder, width=480, shots=keep)
     from PIL import Image
     Image.open(folder / "DJI_0001.JPG").save(folder / "NO_GPS.JPG")  # pixels without the tags
+    sky = read_photo(folder / "DJI_0002.JPG")  # taken at the same place, of a grey sky
+    sky.name = "DJI_SKY.JPG"
+    write_photo(folder / sky.name, np.full((sky.height, sky.width, 3), 180, np.uint8), sky)
     out = tmp_path / "check"
+    report = tmp_path / "check.html"
     code = main(["check", str(folder), "--target", str(MESHES / "gabled_house.obj"), "--geo-origin", *ORIGIN,
-                 "-o", str(out), "--json", "-q"])
+                 "-o", str(out), "--json", "-q", "--report", str(report)])
     assert code == 0
     captured = capsys.readouterr()
-    result = json.loads(captured.out)
+    result = strict_json(captured.out)
     assert "NO_GPS.JPG left out" in captured.err
-    assert result["photos"] == len(keep) and result["models"] == 1
+    assert result["photos"] == len(keep) + 1 and result["models"] == 1
     assert result["registered"] >= 0.98 * len(keep)
+    lost = {r["photo"]: r["why"] for r in result["not_registered"]}
+    assert "DJI_SKY.JPG" in lost and "features" in lost["DJI_SKY.JPG"]
     by = result["surface"]["by_radius"]["0.2"]["by_class_pct"]
     assert by["facade north"] < 30.0  # the side nobody photographed
     assert min(by["facade south"], by["facade east"], by["facade west"]) >= 85.0
@@ -63,6 +70,38 @@ def test_check_finds_one_model_and_names_the_side_left_out(tmp_path, capsys):
     assert classes.count("facade north") > 0.4 * len(classes)
     lon, lat = np.array([f["geometry"]["coordinates"][:2] for f in missing]).T
     assert np.all(np.abs(lat - 48.77) < 0.001) and np.all(np.abs(lon - 9.18) < 0.001)
+    check_report_in_a_browser(report, result)
+
+
+def check_report_in_a_browser(report: Path, result: dict) -> None:
+    """The check's HTML report in headless Chromium: drawn without a script error, every photo
+    not in the model listed with why, and the scene coloured by what COLMAP rebuilt."""
+    from tests.test_report import chromium, open_report
+
+    browser = chromium()
+    try:
+        open_report(browser, report)
+        assert not [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
+        rows = browser.execute_script(
+            "return [...document.querySelectorAll('#photos-lost tr')].slice(1).map(r => r.innerText)")
+        named = {row.split("\t")[0]: row for row in rows}
+        assert set(named) == {"NO_GPS.JPG"} | {r["photo"] for r in result["not_registered"]}
+        assert "no position" in named["NO_GPS.JPG"].lower() or "gps" in named["NO_GPS.JPG"].lower()
+        assert "features" in named["DJI_SKY.JPG"]
+        text = browser.execute_script("return document.getElementById('reconstruction').innerText")
+        assert "facade north" in text and "not in the model" in text
+        # The scene's samples, coloured by whether COLMAP put a point within 0.2 m: as many as the verdict.
+        data = json.loads(browser.execute_script("return document.getElementById('report-data').textContent"))
+        rebuilt = np.frombuffer(base64.b64decode(data["simulation"]["reconstructed"]), np.uint8)
+        assert abs(100.0 * rebuilt.mean() - result["surface"]["by_radius"]["0.2"]["pct"]) < 5.0
+        browser.execute_script("document.querySelector('input[data-layer=uncovered]').click()")
+        before = browser.find_element("css selector", "#view canvas").screenshot_as_png
+        browser.execute_script("document.querySelector('input[value=sfm]').click()")
+        after = browser.find_element("css selector", "#view canvas").screenshot_as_png
+        assert before != after  # the surface recoloured by what was rebuilt
+        assert not [e for e in browser.get_log("browser") if e["level"] == "SEVERE"]
+    finally:
+        browser.quit()
 
 
 @pytest.mark.xdist_group("photos_check")
@@ -80,7 +119,8 @@ def test_check_of_a_real_size_flight_goes_through_spatial_matching(tmp_path, cap
     code = main(["check", str(folder), "--target", str(MESHES / "gabled_house.obj"), "--geo-origin", *ORIGIN,
                  "-o", str(out), "--json", "-q"])
     assert code == 0
-    result = json.loads(capsys.readouterr().out)
+    result = strict_json(capsys.readouterr().out)
+    assert strict_json((out / "check.json").read_text()) == result
     db = pycolmap.Database.open(out / "colmap" / "database.db")
     try:
         images = {im.data_id.id: im.name for im in db.read_all_images()}
@@ -95,6 +135,8 @@ def test_check_of_a_real_size_flight_goes_through_spatial_matching(tmp_path, cap
         assert np.linalg.norm(np.asarray(p.position) - planned[images[p.corr_data_id.id]]) < 0.05
     rec = pycolmap.Reconstruction(out / "colmap" / "sparse" / "0")  # COLMAP's own model on disk
     assert rec.num_reg_images() == result["registered"] >= 0.98 * len(route.shots)
+    (camera,) = rec.cameras.values()  # pinhole photos: the radial term refined stays near nought
+    assert camera.model == pycolmap.CameraModelId.SIMPLE_RADIAL and abs(camera.params[3]) < 0.02
     assert result["models"] == 1
     assert result["gnss_residual_m"]["median"] < 0.5
     assert result["surface"]["by_radius"]["0.2"]["pct"] >= 85.0
@@ -216,17 +258,25 @@ def test_check_of_a_real_gps_only_flight_says_why_it_gives_no_verdict(tmp_path, 
 
 
 @pytest.mark.xdist_group("photos_check")
-def test_a_card_of_two_battery_flights_with_raw_and_broken_files(tmp_path, capsys):
-    """A folder as a card holds it: one subfolder per battery flight whose photos restart at
-    DJI_0001, a DNG beside one JPEG, a JPEG cut short in the copy and one without GPS. The
-    photos of both flights go into one model under their own paths; every other file is named
-    with why it was left out."""
+def test_a_card_of_two_battery_flights_through_a_real_lens(tmp_path, capsys):
+    """A folder as a card holds it after a real-size flight: one subfolder per battery flight
+    whose photos restart at DJI_0001, a DNG beside one JPEG, a JPEG cut short in the copy. The
+    photos are drawn through the Phantom 4 Pro's raw lens (barrel, k1 -0.27) and carry only EXIF
+    (no DewarpData), so COLMAP must find the distortion itself: both flights go into one model
+    under their own paths, the lens is recovered in bundle adjustment, and every other file is
+    named with why it was left out."""
     import shutil
 
+    import pycolmap
+
+    from coverplan.equipment.drones import get_drone
+
     scene = load_scene(MESHES / "gabled_house.obj", geodetic_origin=[float(v) for v in ORIGIN])
-    route = plan(scene, get_camera("phantom4pro"), gsd=0.004, security=3.0, edge_views=False)
+    route = plan(scene, get_camera("phantom4pro"), gsd=0.002, security=3.0)
+    lens = get_drone("phantom4pro").lens
+    assert len(route.shots) >= 100 and lens.k1 < -0.2
     flat = tmp_path / "rendered"
-    written = write_flight_photos(route, scene, flat, width=480)
+    written = write_flight_photos(route, scene, flat, width=240, lens=lens, dewarp_data=False)
     card = tmp_path / "card"
     half = len(written) // 2
     for k, path in enumerate(written):
@@ -235,25 +285,30 @@ def test_a_card_of_two_battery_flights_with_raw_and_broken_files(tmp_path, capsy
         shutil.copy(path, card / flight / f"DJI_{number:04d}.JPG")
     (card / "100MEDIA" / "DJI_0003.DNG").write_bytes(b"II*\x00" + bytes(4096))  # the raw twin of a JPEG
     whole = (card / "101MEDIA" / "DJI_0002.JPG").read_bytes()
-    (card / "101MEDIA" / "DJI_0099.JPG").write_bytes(whole[: len(whole) // 2])  # cut short in the copy
+    (card / "101MEDIA" / "DJI_0999.JPG").write_bytes(whole[: len(whole) // 2])  # cut short in the copy
     out = tmp_path / "check"
     code = main(["check", str(card), "--target", str(MESHES / "gabled_house.obj"), "--geo-origin", *ORIGIN,
                  "-o", str(out), "--json", "-q"])
     captured = capsys.readouterr()
     assert code == 0, captured.err
-    result = json.loads(captured.out)
+    result = strict_json(captured.out)
     used = result["photos_used"]
     assert len(used) == len(written) and "100MEDIA/DJI_0001.JPG" in used and "101MEDIA/DJI_0001.JPG" in used
-    assert result["models"] == 1 and result["registered"] >= 0.98 * len(written)
     err = captured.err
     assert "100MEDIA/DJI_0003.DNG left out: a raw file; the JPEG beside it is used" in err
-    assert "101MEDIA/DJI_0099.JPG left out: not a whole image" in err
-    import pycolmap
-
+    assert "101MEDIA/DJI_0999.JPG left out: not a whole image" in err
+    assert len(result["cameras"]) == 1 and "lens distortion estimated" in result["cameras"][0]
     models = sorted((out / "colmap" / "sparse").iterdir())
-    rec = max((pycolmap.Reconstruction(m) for m in models), key=lambda r: r.num_reg_images())
+    recs = [pycolmap.Reconstruction(m) for m in models]
+    rec = max(recs, key=lambda r: r.num_reg_images())  # COLMAP's own model on disk
+    assert len(recs) == result["models"] == 1
+    assert rec.num_reg_images() == result["registered"] >= 0.98 * len(written)
     names = {im.name for im in rec.images.values()}
     assert {"100MEDIA/DJI_0001.JPG", "101MEDIA/DJI_0001.JPG"} <= names  # COLMAP's own names, both flights
+    (camera,) = rec.cameras.values()
+    assert camera.model == pycolmap.CameraModelId.SIMPLE_RADIAL
+    assert camera.params[3] < -0.1  # the barrel found (one radial term for the lens's three)
+    assert result["surface"]["by_radius"]["0.2"]["pct"] >= 85.0
 
 
 @pytest.mark.parametrize("make, words", [

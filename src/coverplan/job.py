@@ -26,14 +26,16 @@ class JobResult:
 
 
 def write_pictures(route: Route, scene, evaluation: Evaluation | None, report=None, plot=None,
-                   progress: Progress | None = None, simulation=None, title: str | None = None) -> list[Path]:
-    """The HTML report (``report``: its path) and PNG figures (``plot``: their folder)."""
+                   progress: Progress | None = None, simulation=None, title: str | None = None,
+                   check=None) -> list[Path]:
+    """The HTML report (``report``: its path) and PNG figures (``plot``: their folder);
+    ``simulation`` or ``check`` (a Check) adds what SfM made of the photos."""
     progress = progress or Progress()
     written = []
     if report:
         with progress.stage("HTML report"):
             written.append(write_html_report(route, scene, report, evaluation=evaluation, title=title,
-                                             simulation=simulation))
+                                             simulation=simulation, check=check))
     if plot:
         with progress.stage("PNG figures"):
             written += write_figures(route, scene, plot, evaluation=evaluation, simulation=simulation)

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import json
 import sys
 
 from coverplan.cli.args import add_mapper_arg, add_scene_args, scene_from_args
 from coverplan.equipment.camera import check_positive
 from coverplan.errors import ParameterError
 from coverplan.evaluation import evaluate
+from coverplan.files import json_text
 from coverplan.job import write_pictures
 from coverplan.progress import Progress
 from coverplan.sfm.check import WORKING_PX
@@ -31,9 +31,10 @@ def cmd_check(args) -> int:
     if args.report:
         with progress.stage("evaluate"):
             ev = evaluate(result.route, scene)
-        write_pictures(result.route, scene, ev, args.report, None, progress, result.simulation)
+        write_pictures(result.route, scene, ev, args.report, None, progress, check=result,
+                       title=f"coverplan check: {Path(args.photos).name}")
     if args.json:
-        print(json.dumps(result.to_dict(), indent=1, default=float))
+        print(json_text(result.to_dict()))
     elif not args.quiet:
         print(result.table())
         print(f"written: {out / 'check.json'}, {out / 'missing.ply'}, {out / 'missing.geojson'}"

@@ -219,6 +219,15 @@ def simulation_rows(sim) -> str:
     return out
 
 
+def photos_section(check) -> str:
+    """For ``coverplan check``: its verdict, and every photo not in the model with why."""
+    unused = [(n, "left out before SfM: " + w) for n, w in check.left_out] + list(check.lost)
+    body = "".join(f"<tr><td class=l>{html.escape(n)}</td><td class=l>{html.escape(w)}</td></tr>" for n, w in unused)
+    listed = (f"<h3>Photos not in the model ({len(unused)})</h3><table id=photos-lost><tr><th class=l>photo</th>"
+              f"<th class=l>why</th></tr>{body}</table>") if unused else "<p>Every photo is in the model.</p>"
+    return f"<table>{_rows([(k.strip(), v.strip()) for k, v in check.rows()])}</table>{listed}"
+
+
 def draws_html(sim) -> str:
     """What each drawn flight lost: photos SfM could not place, surface without a 3D point, per class."""
     classes = sorted({c for d in sim.draws for c in d["by_class_pct"]})
@@ -235,8 +244,14 @@ def draws_html(sim) -> str:
             f"<th>reconstructable</th></tr>{''.join(body)}</table>")
 
 
-def render_html(route, scene, evaluation, title: str = "coverplan flight report", simulation=None) -> str:
+def render_html(route, scene, evaluation, title: str = "coverplan flight report", simulation=None,
+                check=None) -> str:
+    simulation = check.simulation if check is not None else simulation
     data = report_data(route, scene, evaluation, simulation)
+    if check is None:
+        reconstruction = f"<h2>Reconstruction (simulated photos, COLMAP)</h2>{simulation_rows(simulation)}"
+    else:
+        reconstruction = f"<h2>Reconstruction (the flight's photos, COLMAP)</h2>{photos_section(check)}"
     three = base64.b64encode(_asset("three.module.min.js").encode()).decode()
     orbit = base64.b64encode(_asset("OrbitControls.js").encode()).decode()
     import_map = {"imports": {"three": f"data:text/javascript;base64,{three}",
@@ -299,7 +314,7 @@ def render_html(route, scene, evaluation, title: str = "coverplan flight report"
 <section><h2>Flights ({route.n_flights})</h2>{flights_section(route)}</section>
 <section class=wide><h2>Map</h2><p>The flight from above: each battery flight in its colour, its photos as dots,
 H the take-off point; north and the scale as drawn.</p>{plan_view_svg(route, scene)}</section>
-<section><h2>Reconstruction (simulated photos, COLMAP)</h2>{simulation_rows(simulation)}</section>
+<section id=reconstruction>{reconstruction}</section>
 </div>
 <section><h2>Road map ({len(route)} waypoints)</h2>
 <div class=scroll><table id="road-map"><thead><tr><th>#</th><th>flight</th><th>x</th><th>y</th><th>z</th><th>altitude</th>
@@ -314,14 +329,16 @@ H the take-off point; north and the scale as drawn.</p>{plan_view_svg(route, sce
 """
 
 
-def write_html_report(route, scene, path, evaluation=None, title: str | None = None, simulation=None) -> Path:
+def write_html_report(route, scene, path, evaluation=None, title: str | None = None, simulation=None,
+                      check=None) -> Path:
     """Write the report for ``route`` in ``scene`` (evaluating it unless given); with a
-    ``simulation`` it also shows what SfM recovered and which photos it lost."""
+    ``simulation`` it also shows what SfM recovered and which photos it lost; with a ``check``
+    (``coverplan check``'s result) its verdict and every photo not in the model, with why."""
     if evaluation is None:
         evaluation = evaluate(route, scene)
     path = Path(path)
     path.write_text(render_html(route, scene, evaluation, title or f"coverplan flight report: {path.stem}",
-                                simulation=simulation),
+                                simulation=simulation, check=check),
                     encoding="utf-8")
     return path
 

@@ -11,7 +11,6 @@ models, and the share of the surface rebuilt per class, with where it is missing
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -20,18 +19,21 @@ import trimesh
 
 from coverplan.equipment.camera import Camera
 from coverplan.errors import InputFileError, ParameterError
+from coverplan.files import json_text
 from coverplan.flight.missions import AMSL, TAKEOFF, Mission, mission_to_route
 from coverplan.geometry import geo
 from coverplan.progress import Progress
 from coverplan.sfm.cameras import CameraGroup, photo_groups
 from coverplan.sfm.colmap import SPATIAL_NEIGHBOURS, require_pycolmap, run_sfm
 from coverplan.sfm.judge import judge_samples, reconstructed_surface
+from coverplan.sfm.lost import lost_photos
 from coverplan.sfm.photo_cover import photo_cover, point_ceiling
 from coverplan.sfm.photos import PhotoTags, photo_files, raw_files, read_photo, whole_image
 from coverplan.sfm.render import ground_plane
 from coverplan.sfm.simulate import CLASS_MIN, JUDGE_SPACING_M, REGISTERED_MIN, SURFACE_MIN, Simulation
 
 ICP_ROUNDS = 15
+LOST_SHOWN = 5  # photos outside the model named in the table
 ICP_SAMPLE = 20_000
 WORKING_PX = 2000  # longest side of the photos as their features are found (benchmarks/README.md, check)
 MAX_FIT_M = 3.0  # a GNSS drone's flight-wide horizontal error stays within this; the fit moves no farther
@@ -57,6 +59,7 @@ class Check:
     photo_cover: dict = field(default_factory=dict)  # where the sparse model is too thin: what the photos see
     point_ceiling_pct: float = 100.0  # the most surface the sparse points could reach at 0.2 m
     cameras: list = field(default_factory=list)  # each camera COLMAP was given: what it is, how many photos
+    lost: list = field(default_factory=list)  # (name, why) of the photos outside the largest model
 
     @property
     def thin(self) -> bool:
@@ -75,12 +78,22 @@ class Check:
                 and all(v >= CLASS_MIN for v in self.photo_cover["by_class_pct"].values()))
 
     def table(self) -> str:
+        rows = self.rows()
+        w = max(len(r[0]) for r in rows)
+        return "\n".join(f"{k:<{w}}  {v}" for k, v in rows)
+
+    def rows(self) -> list[tuple[str, str]]:
+        """The table's (label, value) rows; a label indented by two spaces details the row above."""
         rows = [("photos in the folder", f"{len(self.names) + len(self.left_out)}"),
                 ("left out", ", ".join(n for n, _ in self.left_out[:8])
                  + (f" and {len(self.left_out) - 8} more" if len(self.left_out) > 8 else "") or "none"),
                 ("heights", self.route.extra.get("heights", "") or "-"),
                 ("camera" if len(self.cameras) < 2 else "cameras", "; ".join(self.cameras) or "-"),
                 ("aligned to the scene", self._alignment())]
+        if self.lost:
+            more = f", the first {LOST_SHOWN} here (all in check.json)" if len(self.lost) > LOST_SHOWN else ""
+            rows.append(("not in the model", f"{len(self.lost)} photos{more}"))
+            rows += [(f"  {n}", w) for n, w in self.lost[:LOST_SHOWN]]
         if self.gnss_residual_m:
             residual = self.gnss_residual_m
             rows.append(("camera centres from their tags",
@@ -106,8 +119,7 @@ class Check:
             rows += verdict
             worst = sorted(self.missing.items(), key=lambda kv: -kv[1])[:4]
             rows += [("missing", ", ".join(f"{c} {a:.1f} m2" for c, a in worst if a > 0.05) or "nothing")]
-        w = max(len(r[0]) for r in rows)
-        return "\n".join(f"{k:<{w}}  {v}" for k, v in rows)
+        return rows
 
     def _alignment(self) -> str:
         if self.fitted and not self.unjudged:
@@ -118,10 +130,13 @@ class Check:
             else "through the GNSS tags only"
 
     def to_dict(self) -> dict:
+        verdict = self.simulation.to_dict()
+        verdict.pop("centre_error_m")  # real photos have no true centres: gnss_residual_m is what is known
         return {"photos_used": self.names, "cameras": self.cameras, "left_out": [{"photo": n, "why": w} for n, w in self.left_out],
+                "not_registered": [{"photo": n, "why": w} for n, w in self.lost],
                 "icp_shift_m": self.icp_shift_m, "fitted": self.fitted, "missing_m2": self.missing,
                 "gnss_residual_m": self.gnss_residual_m, "judged": not self.unjudged,
-                "why_not_judged": self.unjudged or None, **self.simulation.to_dict(),
+                "why_not_judged": self.unjudged or None, **verdict,
                 "judged_by": "" if self.unjudged else "photo views" if self.thin else "sparse points",
                 "point_ceiling_pct": self.point_ceiling_pct,
                 "photo_cover_pct": self.photo_cover.get("pct"),
@@ -349,7 +364,7 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
     >>> result = coverplan.check("photos/", scene, "check/")  # doctest: +SKIP
     >>> print(result.table())  # doctest: +SKIP
     """
-    require_pycolmap("check")
+    pycolmap = require_pycolmap("check")
     progress = progress or Progress()
     folder = Path(photos_dir)
     route, tags, left_out, cameras = photos_route(folder, scene, gsd, security, progress, least=2)
@@ -364,6 +379,7 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
                   neighbour_distance=max(0.5 * spread, 10.0), neighbours=spatial_neighbours, mapper=mapper,
                   working_px=working_px, cameras=cameras)
     best = sfm.largest
+    lost = lost_photos(pycolmap, out_dir / "colmap" / "database.db", sfm.models, names)
     pts = best.points if best is not None and best.aligned else np.zeros((0, 3))
     shift, fitted, apart, fit_matrix = 0.0, False, None, None
     if len(pts):
@@ -413,7 +429,7 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
         missing = {c: float(area.get(c, 0.0) * (1.0 - v / 100.0)) for c, v in cover["by_class_pct"].items()}
     result = Check(sim, route, names, left_out, shift, fitted, missing, residual, unjudged=unjudged,
                    photo_cover=cover, point_ceiling_pct=ceiling,
-                   cameras=[f"{g.label} ({len(g.names)} photos)" for g in cameras])
+                   cameras=[f"{g.label} ({len(g.names)} photos)" for g in cameras], lost=lost)
     if result.unjudged:
         progress.note(f"no verdict on the surface: {result.unjudged}")
     _write(result, scene, samples, missing_mask, classes, out_dir)
@@ -421,7 +437,7 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
 
 
 def _write(result: Check, scene, samples, missing_mask, classes, out_dir: Path) -> None:
-    (out_dir / "check.json").write_text(json.dumps(result.to_dict(), indent=1, default=float))
+    (out_dir / "check.json").write_text(json_text(result.to_dict()))
     if len(result.simulation.model_points):
         trimesh.PointCloud(result.simulation.model_points).export(out_dir / "check.points.ply")
     gone = samples.points[missing_mask]
@@ -431,5 +447,5 @@ def _write(result: Check, scene, samples, missing_mask, classes, out_dir: Path) 
     features = [{"type": "Feature", "geometry": {"type": "Point", "coordinates": [round(float(a), 9),
                                                                                   round(float(b), 9), round(float(c), 3)]},
                  "properties": {"class": str(k)}} for a, b, c, k in zip(lon, lat, h, classes[missing_mask])]
-    (out_dir / "missing.geojson").write_text(json.dumps({"type": "FeatureCollection", "features": features}))
+    (out_dir / "missing.geojson").write_text(json_text({"type": "FeatureCollection", "features": features}, indent=None))
 
