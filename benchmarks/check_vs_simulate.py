@@ -22,6 +22,7 @@ from common import MESHES, write_json
 from coverplan import get_camera, load_scene, plan
 from coverplan.equipment.drones import get_drone
 from coverplan.progress import Progress
+from coverplan.sfm.cameras import LENS_MODEL, LENS_MODELS
 from coverplan.sfm.check import check
 from coverplan.sfm.photos import write_flight_photos
 from coverplan.sfm.simulate import photo_lens, simulate
@@ -36,6 +37,9 @@ def main(argv=None):
     parser.add_argument("--gsd", type=float, default=0.004, help="the plan's detail, m/px (0.0013: 150+ photos)")
     parser.add_argument("--lens", choices=("pinhole", "drone"), default="pinhole",
                         help="photos drawn through a pinhole or the Phantom 4 Pro's raw lens")
+    parser.add_argument("--lens-model", choices=tuple(LENS_MODELS), nargs="+", default=[LENS_MODEL],
+                        help="the distortion check estimates (several: one check each, on the same photos)")
+    parser.add_argument("--keep", metavar="DIR", help="render the photos into DIR once and reuse them")
     args = parser.parse_args(argv)
     width = 320 if args.quick else args.width
     scene = load_scene(MESHES / "gabled_house.obj", geodetic_origin=ORIGIN)
@@ -46,31 +50,40 @@ def main(argv=None):
     progress = Progress(verbose=True)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        write_flight_photos(route, scene, tmp / "photos", width=width, shots=keep,
-                            lens=photo_lens(args.lens, route), dewarp_data=False)
-        checked = check(tmp / "photos", scene, tmp / "check", progress=progress).simulation
+        photos = Path(args.keep) if args.keep else tmp / "photos"
+        if not (photos.is_dir() and any(photos.iterdir())):
+            write_flight_photos(route, scene, photos, width=width, shots=keep,
+                                lens=photo_lens(args.lens, route), dewarp_data=False)
+        rows = []
+        for model in args.lens_model:
+            checked = check(photos, scene, tmp / f"check-{model}", lens_model=model, progress=progress).simulation
+            rows.append(_row(f"check ({model})", checked))
+            print(rows[-1], flush=True)
         route.shot[route.shots[np.setdiff1d(np.arange(len(route.shots)), keep)]] = False
         simulated = simulate(route, scene, tmp / "sim", conditions="ideal", width=width,
                              lens=args.lens, progress=progress)
-    rows = []
-    for name, s in (("simulate", simulated), ("check", checked)):
-        by = s.surface["by_radius"]
-        rows.append({"tool": name, "photos": s.photos, "registered": s.registered, "models": s.models,
-                     "surface_01_pct": by["0.1"]["pct"], "surface_02_pct": by["0.2"]["pct"],
-                     "by_class_02_pct": by["0.2"]["by_class_pct"]})
+        rows.insert(0, _row("simulate", simulated))
     classes = sorted(rows[0]["by_class_02_pct"])
-    print(f"{'':9} photos  registered  models  @0.1 m  @0.2 m  " + "  ".join(classes))
+    print(f"{'':22} photos  registered  models  @0.1 m  @0.2 m  " + "  ".join(classes))
     for r in rows:
-        print(f"{r['tool']:9} {r['photos']:6d}  {r['registered']:10d}  {r['models']:6d}  {r['surface_01_pct']:6.1f}  "
+        print(f"{r['tool']:22} {r['photos']:6d}  {r['registered']:10d}  {r['models']:6d}  {r['surface_01_pct']:6.1f}  "
               f"{r['surface_02_pct']:6.1f}  " + "  ".join(f"{r['by_class_02_pct'][c]:{len(c)}.1f}" for c in classes))
-    worst = max(abs(rows[0]["by_class_02_pct"][c] - rows[1]["by_class_02_pct"][c]) for c in classes)
-    print(f"largest difference per class @0.2 m: {worst:.1f} pp")
-    overall = abs(rows[0]["surface_02_pct"] - rows[1]["surface_02_pct"])
-    print(f"difference overall @0.2 m: {overall:.1f} pp")
+    for r in rows[1:]:
+        r["largest_class_difference_pp"] = max(abs(rows[0]["by_class_02_pct"][c] - r["by_class_02_pct"][c])
+                                               for c in classes)
+        r["overall_difference_pp"] = abs(rows[0]["surface_02_pct"] - r["surface_02_pct"])
+        print(f"{r['tool']}: difference overall @0.2 m {r['overall_difference_pp']:.1f} pp, "
+              f"largest per class {r['largest_class_difference_pp']:.1f} pp")
     name = "check_vs_simulate" + ("_lens" if args.lens == "drone" else "")
     print("written", write_json(name, args.quick, {"width_px": width, "gsd_m": args.gsd, "lens": args.lens,
-                                                   "rows": rows, "overall_difference_pp": overall,
-                                                   "largest_class_difference_pp": worst}))
+                                                   "rows": rows}))
+
+
+def _row(tool: str, s) -> dict:
+    by = s.surface["by_radius"]
+    return {"tool": tool, "photos": s.photos, "registered": s.registered, "models": s.models,
+            "surface_01_pct": by["0.1"]["pct"], "surface_02_pct": by["0.2"]["pct"],
+            "by_class_02_pct": by["0.2"]["by_class_pct"]}
 
 
 if __name__ == "__main__":

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from coverplan.equipment.drones import get_drone
 from coverplan.equipment.lens import Lens, parse_dewarp_data
 from coverplan.errors import ParameterError
-from coverplan.sfm.cameras import CameraGroup, photo_groups
+from coverplan.sfm.cameras import LENS_MODEL, LENS_MODELS, CameraGroup, photo_groups
 from coverplan.sfm.photos import PhotoTags, read_photo, write_photo
 from coverplan.sfm.render import PhotoCamera
 
@@ -78,8 +78,15 @@ def test_photos_are_grouped_by_camera_and_an_unknown_lens_is_estimated(tmp_path)
     groups = photo_groups([tags("a", 400, "FC6310", 8.8), tags("b", 400, "FC6310", 8.8),
                            tags("c", 640, "L1D-20c", 10.3), tags("d", 400, "FC6310", 12.0)], tmp_path)
     assert [g.names for g in groups] == [["a", "b"], ["c"], ["d"]]
-    assert all(g.model == "SIMPLE_RADIAL" and g.refine and g.params[3] == 0.0 for g in groups)
+    model, terms = LENS_MODELS[LENS_MODEL]
+    assert all(g.model == model and g.refine and g.params[-terms:] == (0.0,) * terms for g in groups)
     assert groups[0].params[0] == pytest.approx(8.8 * 400 / 13.2)
+    for name, (model, terms) in LENS_MODELS.items():  # each named lens model, its terms at zero
+        (group, *_) = photo_groups([tags("a", 400, "FC6310", 8.8)], tmp_path, name)
+        assert group.model == model and len(group.params) == (4 if model == "OPENCV" else 3) + terms
+        assert group.params[-terms:] == (0.0,) * terms
+    with pytest.raises(ParameterError, match="lens model"):
+        photo_groups([tags("a", 400, "FC6310", 8.8)], tmp_path, "fisheye")
 
 
 def test_a_lens_out_of_range_is_refused():

@@ -11,6 +11,7 @@ from coverplan.evaluation import evaluate
 from coverplan.files import json_text
 from coverplan.job import write_pictures
 from coverplan.progress import Progress
+from coverplan.sfm.cameras import LENS_MODEL, LENS_MODELS
 from coverplan.sfm.check import WORKING_PX
 from coverplan.sfm.check import check as check_photos
 
@@ -25,7 +26,8 @@ def cmd_check(args) -> int:
     scene = scene_from_args(args)
     progress = Progress(bars=not args.quiet, verbose=args.verbose)
     result = check_photos(args.photos, scene, out, gsd=gsd, security=security, threads=args.threads, fit=args.fit,
-                          mapper=args.mapper, working_px=args.working_px or None, progress=progress)
+                          mapper=args.mapper, working_px=args.working_px or None, lens_model=args.lens_model,
+                          progress=progress)
     for name, why in result.left_out:
         print(f"coverplan: {name} left out: {why}", file=sys.stderr)
     if args.report:
@@ -60,6 +62,9 @@ def register(sub) -> None:
     p.add_argument("--working-px", type=int, default=WORKING_PX, metavar="PX",
                    help=f"find features on the photos scaled down to this longest side (default {WORKING_PX}; "
                         "0: full size)")
+    p.add_argument("--lens-model", choices=tuple(LENS_MODELS), default=LENS_MODEL,
+                   help="the distortion COLMAP estimates for photos without DJI DewarpData: one radial term "
+                        f"(simple_radial), two (radial) or two radial and two tangential (opencv); default {LENS_MODEL}")
     add_mapper_arg(p)
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--strict", action="store_true",

@@ -3,8 +3,8 @@
 A rendered flight's camera is known exactly (``simulate`` drew the photos through it): a
 pinhole, or COLMAP's FULL_OPENCV with the drawn lens, never refined. A real flight's camera is
 a starting point that bundle adjustment refines: DJI's ``DewarpData`` calibration where the
-photos carry it (OPENCV: k1, k2, p1, p2 refined, its k3 left to them), else the EXIF focal length with one radial term starting at
-zero (SIMPLE_RADIAL, COLMAP's own default for photos of an unknown lens).
+photos carry it (OPENCV: k1, k2, p1, p2 refined, its k3 left to them), else the EXIF focal
+length with the distortion terms of ``lens_model`` starting at zero (``LENS_MODELS``).
 """
 
 from __future__ import annotations
@@ -14,8 +14,29 @@ from dataclasses import dataclass
 import numpy as np
 
 from coverplan.equipment.lens import parse_dewarp_data
-from coverplan.errors import InputFileError
+from coverplan.errors import InputFileError, ParameterError
 from coverplan.sfm.render import PhotoCamera
+
+# A lens the photos do not describe: COLMAP's model, and its distortion terms (all start at zero).
+LENS_MODELS = {
+    "simple_radial": ("SIMPLE_RADIAL", 1),  # f, cx, cy, k: COLMAP's default for an unknown camera
+    "radial": ("RADIAL", 2),  # f, cx, cy, k1, k2
+    "opencv": ("OPENCV", 4),  # fx, fy, cx, cy, k1, k2, p1, p2
+}
+LENS_MODEL = "radial"
+
+
+def check_lens_model(name: str) -> str:
+    """``name`` if it is one of ``LENS_MODELS``.
+
+    Raises
+    ------
+    ParameterError
+        Any other name.
+    """
+    if name not in LENS_MODELS:
+        raise ParameterError(f"lens model must be one of {', '.join(LENS_MODELS)}, got {name!r}")
+    return name
 
 
 @dataclass
@@ -43,9 +64,10 @@ class CameraGroup:
         return ",".join(f"{float(v):.12g}" for v in self.params)
 
 
-def photo_groups(tags: list, folder) -> list[CameraGroup]:
+def photo_groups(tags: list, folder, lens_model: str = LENS_MODEL) -> list[CameraGroup]:
     """The photos of a real flight (``tags``: PhotoTags) grouped by camera: EXIF model, image
-    size, focal length and lens calibration; the largest group first.
+    size, focal length and lens calibration; the largest group first. A camera without DJI
+    ``DewarpData`` is given ``lens_model``'s distortion terms, starting at zero.
 
     Raises
     ------
@@ -78,7 +100,10 @@ def photo_groups(tags: list, folder) -> list[CameraGroup]:
             out.append(CameraGroup(photo, names, "OPENCV", params, True, label + f", {photo.fx:.0f} px focal and lens from DJI DewarpData"))
         else:
             photo = PhotoCamera(width, height, fx, fx)
-            out.append(CameraGroup(photo, names, "SIMPLE_RADIAL", (fx, width / 2.0, height / 2.0, 0.0), True,
-                                   label + f", {fx:.0f} px focal from EXIF, lens distortion estimated"))
+            colmap_model, terms = LENS_MODELS[check_lens_model(lens_model)]
+            focal = (fx, fx) if colmap_model == "OPENCV" else (fx,)
+            out.append(CameraGroup(photo, names, colmap_model, focal + (width / 2.0, height / 2.0) + (0.0,) * terms,
+                                   True, label + f", {fx:.0f} px focal from EXIF, lens distortion estimated "
+                                                 f"({colmap_model})"))
     out.sort(key=lambda g: -len(g.names))
     return out

@@ -23,7 +23,7 @@ from coverplan.files import json_text
 from coverplan.flight.missions import AMSL, TAKEOFF, Mission, mission_to_route
 from coverplan.geometry import geo
 from coverplan.progress import Progress
-from coverplan.sfm.cameras import CameraGroup, photo_groups
+from coverplan.sfm.cameras import LENS_MODEL, CameraGroup, photo_groups
 from coverplan.sfm.colmap import SPATIAL_NEIGHBOURS, require_pycolmap, run_sfm
 from coverplan.sfm.judge import judge_samples, reconstructed_surface
 from coverplan.sfm.lost import lost_photos
@@ -236,7 +236,8 @@ def route_camera(group: CameraGroup, tags: list[PhotoTags]) -> Camera:
                   name="from the photos' EXIF")
 
 
-def photos_route(folder, scene, gsd: float, security: float, progress: Progress | None = None, least: int = 1):
+def photos_route(folder, scene, gsd: float, security: float, progress: Progress | None = None, least: int = 1,
+                 lens_model: str = LENS_MODEL):
     """The photos of ``folder`` as a route of one photo per waypoint, in the scene's frame,
     from their metadata (positions through the scene's georeference).
 
@@ -276,7 +277,7 @@ def photos_route(folder, scene, gsd: float, security: float, progress: Progress 
     if len(tags) < least:
         raise InputFileError(folder, f"has {len(tags)} photo(s) with a GPS position; "
                                      + ("SfM needs at least 2" if least >= 2 else "at least one is needed"))
-    cameras = photo_groups(tags, folder)
+    cameras = photo_groups(tags, folder, lens_model)
     camera = route_camera(cameras[0], tags)
     frame = scene.frame
     absolute = bool(frame.get("vertical_crs") or frame.get("geodetic_origin"))
@@ -313,7 +314,8 @@ def fit_to_scene(points: np.ndarray, surfaces: trimesh.Trimesh, rounds: int = IC
 def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.0, threads: int = -1,
           exhaustive_limit: int = 80, spatial_neighbours: int = SPATIAL_NEIGHBOURS,
           judge_spacing: float = JUDGE_SPACING_M, fit: bool = True, mapper: str = "auto",
-          working_px: int | None = WORKING_PX, progress: Progress | None = None) -> Check:
+          working_px: int | None = WORKING_PX, lens_model: str = LENS_MODEL,
+          progress: Progress | None = None) -> Check:
     """Reconstruct a flight's photos and judge what they rebuilt of ``scene``.
 
     Parameters
@@ -332,6 +334,9 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
         COLMAP's mapper, as ``simulate`` takes it.
     working_px : int or None
         The longest side, px, the photos are scaled down to for their features (None: full size).
+    lens_model : {"simple_radial", "radial", "opencv"}
+        The distortion terms bundle adjustment estimates for a camera whose photos carry no
+        DJI ``DewarpData`` (sfm/cameras.py ``LENS_MODELS``).
     threads : int
         Threads for COLMAP (-1: every core).
     exhaustive_limit : int
@@ -367,7 +372,8 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
     pycolmap = require_pycolmap("check")
     progress = progress or Progress()
     folder = Path(photos_dir)
-    route, tags, left_out, cameras = photos_route(folder, scene, gsd, security, progress, least=2)
+    route, tags, left_out, cameras = photos_route(folder, scene, gsd, security, progress, least=2,
+                                                   lens_model=lens_model)
     photo = cameras[0].photo
     names = [t.name for t in tags]
     out_dir = Path(out_dir)
