@@ -74,6 +74,7 @@ def photo_groups(tags: list, folder, lens_model: str = LENS_MODEL) -> list[Camer
     InputFileError
         No photo of a group gives a focal length.
     """
+    colmap_model, terms = LENS_MODELS[check_lens_model(lens_model)]
     groups: dict[tuple, list] = {}
     for t in tags:
         focal = round(float(t.focal_mm), 2) if np.isfinite(t.focal_mm) else None
@@ -100,7 +101,6 @@ def photo_groups(tags: list, folder, lens_model: str = LENS_MODEL) -> list[Camer
             out.append(CameraGroup(photo, names, "OPENCV", params, True, label + f", {photo.fx:.0f} px focal and lens from DJI DewarpData"))
         else:
             photo = PhotoCamera(width, height, fx, fx)
-            colmap_model, terms = LENS_MODELS[check_lens_model(lens_model)]
             focal = (fx, fx) if colmap_model == "OPENCV" else (fx,)
             out.append(CameraGroup(photo, names, colmap_model, focal + (width / 2.0, height / 2.0) + (0.0,) * terms,
                                    True, label + f", {fx:.0f} px focal from EXIF, lens distortion estimated "

@@ -33,8 +33,8 @@ from coverplan.sfm.render import ground_plane
 from coverplan.sfm.simulate import CLASS_MIN, JUDGE_SPACING_M, REGISTERED_MIN, SURFACE_MIN, Simulation
 
 ICP_ROUNDS = 15
-LOST_SHOWN = 5  # photos outside the model named in the table
 ICP_SAMPLE = 20_000
+LOST_SHOWN = 5  # photos outside the model named in the table
 WORKING_PX = 2000  # longest side of the photos as their features are found (benchmarks/README.md, check)
 MAX_FIT_M = 3.0  # a GNSS drone's flight-wide horizontal error stays within this; the fit moves no farther
 # Heights are a GNSS drone's weakest figure (several metres, and barometric drift over a flight):

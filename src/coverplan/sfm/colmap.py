@@ -183,7 +183,7 @@ def write_position_priors(pycolmap, database: Path, names: list[str], positions:
     carries GPS, and the database keeps one prior per image: that one is replaced, not joined
     by a second.
     """
-    db = _open_database(pycolmap, database)
+    db = open_database(pycolmap, database)
     try:
         index = {name: k for k, name in enumerate(names)}
         stored = {_data_key(p.corr_data_id): p for p in db.read_all_pose_priors()}
@@ -289,7 +289,7 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
         with _colmap_failure("matching", database):
             _match_pairs(pycolmap, database, work_dir, names, pairs, matching, verification, progress)
     seconds["matching"] = time.perf_counter() - t
-    db = _open_database(pycolmap, database)
+    db = open_database(pycolmap, database)
     matched, verified = int(db.num_matched_image_pairs()), int(db.num_verified_image_pairs())
     db.close()
 
@@ -329,7 +329,8 @@ def _colmap_failure(stage: str, database: Path):
 POLL_S = 1.0  # seconds between reads of COLMAP's database for a bar's progress
 
 
-def _open_database(pycolmap, database: Path):
+def open_database(pycolmap, database: Path):
+    """COLMAP's database at ``database``, opened as the installed pycolmap opens it."""
     return pycolmap.Database.open(database) if hasattr(pycolmap.Database, "open") else pycolmap.Database(database)
 
 

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from coverplan.sfm.colmap import open_database
+
 PAIR_BASE = 2147483647  # COLMAP's pair id: PAIR_BASE * first image id + second image id
 MIN_INLIERS = 15  # COLMAP's two-view verification keeps a pair from this many inliers (its default)
 FEW_FEATURES = 100  # below this a photo is featureless to SIFT: sky, water, a blurred or blank frame
@@ -47,7 +49,7 @@ def lost_photos(pycolmap, database: Path, models: list, names: list[str]) -> lis
     if not lost:
         return []
     model_of = {n: k for k, m in enumerate(models[1:], start=2) for n in m.image_names}
-    db = pycolmap.Database.open(database)
+    db = open_database(pycolmap, database)
     try:
         ids = {im.name: int(im.image_id) for im in db.read_all_images()}
         features = {n: int(db.num_keypoints_for_image(ids[n])) for n in lost if n in ids}
