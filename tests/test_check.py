@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import base64
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -144,7 +145,7 @@ def test_check_of_a_real_size_flight_goes_through_spatial_matching(tmp_path, cap
     assert result["surface"]["by_radius"]["0.2"]["pct"] >= 85.0
 
 
-def test_a_colmap_failure_names_its_stage_and_keeps_the_database(tmp_path, capsys, monkeypatch):
+def test_a_colmap_failure_names_its_stage_and_a_rerun_resumes(tmp_path, capsys, monkeypatch):
     pytest.importorskip("pycolmap")
     from coverplan.sfm import colmap
 
@@ -165,6 +166,30 @@ def test_a_colmap_failure_names_its_stage_and_keeps_the_database(tmp_path, capsy
     assert "COLMAP failed in" in err[0] and "mapping" in err[0] and "Traceback" not in err[0]
     database = out / "colmap" / "database.db"
     assert str(database) in err[0] and database.exists()
+
+    # The rerun starts after the stages that finished: features and matches are not made again.
+    monkeypatch.undo()
+    made = []
+
+    def counted(real):
+        def call(*args, **kwargs):
+            made.append(real.__name__)
+            return real(*args, **kwargs)
+        return call
+
+    for name in ("extract_features", "polled"):  # polled runs COLMAP's matching
+        monkeypatch.setattr(colmap, name, counted(getattr(colmap, name)))
+    command = ["check", str(folder), "--target", str(MESHES / "gabled_house.obj"), "--geo-origin", *ORIGIN,
+               "-o", str(out), "--json", "-v"]
+    assert main(command) == 0
+    assert made == [] and "kept from the earlier run" in capsys.readouterr().err
+    assert (out / "colmap" / "sparse").is_dir()
+    # A photo written again is a different photo: everything runs anew.
+    first = sorted(folder.iterdir())[0]
+    first.write_bytes(first.read_bytes())
+    os.utime(first, ns=(first.stat().st_atime_ns, first.stat().st_mtime_ns + 10 ** 9))
+    assert main(command) == 0
+    assert "extract_features" in made and "polled" in made
 
 
 REAL = Path(__file__).resolve().parents[2] / "shared" / "data" / "real-photos"

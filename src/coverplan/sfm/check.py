@@ -360,7 +360,9 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
     InputFileError
         A folder without photos, or without two photos that carry a position.
     SfmError
-        A COLMAP stage failed; the database is kept, so a rerun resumes.
+        A COLMAP stage failed. The stages it finished stay in ``out_dir``/colmap, and a rerun
+        on the same photos with the same options starts after them (a changed photo or
+        option starts over).
 
     Examples
     --------
@@ -383,7 +385,7 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
     sfm = run_sfm(folder, names, photo, gnss, [], out_dir / "colmap", exhaustive_limit=exhaustive_limit,
                   threads=threads, progress=progress, matching="spatial", recorded_positions=gnss,
                   neighbour_distance=max(0.5 * spread, 10.0), neighbours=spatial_neighbours, mapper=mapper,
-                  working_px=working_px, cameras=cameras)
+                  working_px=working_px, cameras=cameras, resume=True)
     best = sfm.largest
     lost = lost_photos(pycolmap, out_dir / "colmap" / "database.db", sfm.models, names)
     pts = best.points if best is not None and best.aligned else np.zeros((0, 3))

@@ -22,6 +22,7 @@ from coverplan.errors import ParameterError, SfmError
 from coverplan.progress import clock_bar
 from coverplan.sfm.cameras import CameraGroup
 from coverplan.sfm.pairs import spatial_pairs
+from coverplan.sfm.resume import WorkFolder, photo_stamps, stage_key
 
 INSTALL_HINT = "{command} needs pycolmap; install it with: pip install 'coverplan[sfm]'"
 
@@ -219,7 +220,8 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
             work_dir: Path, *, exhaustive_limit: int = 80, max_features: int = MAX_FEATURES, threads: int = -1,
             seed: int = 0, progress=None, matching: str = "covisible", recorded_positions: np.ndarray | None = None,
             neighbour_distance: float = 100.0, neighbours: int = SPATIAL_NEIGHBOURS,
-            mapper: str = "auto", working_px: int | None = None, cameras: list | None = None) -> SfmResult:
+            mapper: str = "auto", working_px: int | None = None, cameras: list | None = None,
+            resume: bool = False) -> SfmResult:
     """Features, matching and mapping over the photos ``names`` in ``image_dir``.
 
     Up to ``exhaustive_limit`` photos every pair is matched. Above it, ``matching`` "spatial"
@@ -232,7 +234,9 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     "auto" (``pick_mapper``). ``working_px``: features are found on the photos scaled down to
     this longest side (None: full size); COLMAP scales the keypoints back. ``cameras``: the
     photos' CameraGroups (sfm/cameras.py; default: all taken with ``photo``, known exactly);
-    intrinsics are refined when a group asks for it."""
+    intrinsics are refined when a group asks for it. ``resume``: keep the features and matches
+    an earlier run left in ``work_dir`` for the same photos and options (sfm/resume.py);
+    otherwise the folder is emptied first."""
     import time
 
     pycolmap = require_pycolmap()
@@ -240,29 +244,39 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     mapper = pick_mapper(mapper, len(names))
     pycolmap.logging.minloglevel = 2  # COLMAP's per-image log drowns the progress bars
     work_dir = Path(work_dir)
-    if work_dir.exists():
-        shutil.rmtree(work_dir)
-    work_dir.mkdir(parents=True)
+    cameras = cameras or [CameraGroup.known(photo, names)]
+    longest = max(max(g.photo.width, g.photo.height) for g in cameras)
+    working = longest if working_px is None else min(longest, int(working_px))
+    exhaustive = len(names) <= exhaustive_limit
+    recorded = recorded_positions if recorded_positions is not None else true_centres
+    features_key = stage_key("features", photo_stamps(image_dir, names), working, max_features,
+                             [(g.model, g.colmap_params, list(g.names)) for g in cameras])
+    matching_key = stage_key("matching", features_key, exhaustive, matching, neighbours, neighbour_distance, seed,
+                             np.asarray(recorded, dtype=float) if matching == "spatial" else list(map(list, pairs)))
+    folder = WorkFolder(work_dir, {"features": features_key, "matching": matching_key}, resume)
     database = work_dir / "database.db"
     seconds = {}
 
     t = time.perf_counter()
-    cameras = cameras or [CameraGroup.known(photo, names)]
     extraction = pycolmap.FeatureExtractionOptions()
     extraction.num_threads = threads
-    longest = max(max(g.photo.width, g.photo.height) for g in cameras)
-    extraction.max_image_size = longest if working_px is None else min(longest, int(working_px))
+    extraction.max_image_size = working
     extraction.sift.max_num_features = max_features
     # The rest of SIFT stays at COLMAP's defaults, as a user's own COLMAP run would have it.
     # Starting at octave 0 instead of -1 (no upsampling) found a quarter of the features and
     # left about 10 % of a well-photographed wall without a point within 0.2 m.
-    with _colmap_failure("feature extraction", database), _stage(progress, "SfM features", total=len(names)) as tick:
-        done = 0
-        for group in cameras:  # one call per camera: each call makes its camera from its options
-            reader = pycolmap.ImageReaderOptions()
-            reader.camera_model, reader.camera_params = group.model, group.colmap_params
-            extract_features(pycolmap, database, image_dir, group.names, reader, extraction, tick, base=done)
-            done += len(group.names)
+    if folder.has("features"):
+        _kept(progress, "SfM features", database)
+    else:
+        with _colmap_failure("feature extraction", database), \
+                _stage(progress, "SfM features", total=len(names)) as tick:
+            done = 0
+            for group in cameras:  # one call per camera: each call makes its camera from its options
+                reader = pycolmap.ImageReaderOptions()
+                reader.camera_model, reader.camera_params = group.model, group.colmap_params
+                extract_features(pycolmap, database, image_dir, group.names, reader, extraction, tick, base=done)
+                done += len(group.names)
+        folder.finished("features")
     seconds["features"] = time.perf_counter() - t
 
     t = time.perf_counter()
@@ -273,7 +287,10 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     # draw verifies the same inliers, pair for pair, on every run.
     verification = pycolmap.TwoViewGeometryOptions()
     verification.ransac.random_seed = int(seed)
-    if len(names) <= exhaustive_limit:
+    if folder.has("matching"):
+        _kept(progress, "SfM matching", database)
+    elif exhaustive:
+        _clear_matches(pycolmap, database)
         total = len(names) * (len(names) - 1) // 2
         with _colmap_failure("exhaustive matching", database), \
                 _stage(progress, "SfM matching", total=total, unit="pair") as tick:
@@ -281,13 +298,14 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
                 database, matching_options=matching, verification_options=verification,
                 device=pycolmap.Device.cpu, cancellation_token=token), database, "two_view_geometries", total, tick)
     else:
+        _clear_matches(pycolmap, database)
         if matching_kind == "spatial":
-            recorded = recorded_positions if recorded_positions is not None else true_centres
             with _colmap_failure("writing the GNSS positions as pose priors", database):
                 write_position_priors(pycolmap, database, names, recorded, 1.0)
             pairs = spatial_pairs(recorded, neighbours, neighbour_distance)
         with _colmap_failure("matching", database):
             _match_pairs(pycolmap, database, work_dir, names, pairs, matching, verification, progress)
+    folder.finished("matching")
     seconds["matching"] = time.perf_counter() - t
     db = open_database(pycolmap, database)
     matched, verified = int(db.num_matched_image_pairs()), int(db.num_verified_image_pairs())
@@ -295,6 +313,8 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
 
     t = time.perf_counter()
     sparse = work_dir / "sparse"
+    if sparse.exists():
+        shutil.rmtree(sparse)
     sparse.mkdir()
     with _colmap_failure(f"{mapper} mapping", database):
         recs = map_models(pycolmap, mapper, database, image_dir, sparse, threads, seed, len(names), progress,
@@ -314,6 +334,23 @@ def aligned_models(pycolmap, recs: dict, names: list[str], true_centres: np.ndar
     models = [_aligned(pycolmap, rec, index, true_centres) for rec in recs.values()]
     models.sort(key=lambda m: -len(m.image_names))
     return models
+
+
+def _kept(progress, stage: str, database: Path) -> None:
+    if progress is not None:
+        progress.note(f"{stage}: kept from the earlier run in {database}")
+
+
+def _clear_matches(pycolmap, database: Path) -> None:
+    """Drop matches a killed run left half written (a fresh database has none)."""
+    if not database.exists():
+        return
+    db = open_database(pycolmap, database)
+    try:
+        db.clear_matches()
+        db.clear_two_view_geometries()
+    finally:
+        db.close()
 
 
 @contextmanager
