@@ -108,6 +108,15 @@ def test_no_import_cycles():
     assert not cycles, "\n".join(cycles)
 
 
+MAX_LINES = 500  # one concern per module; past this it holds two
+
+
+def test_no_module_is_over_500_lines():
+    long = {name: n for name, path in _modules().items()
+            if (n := len(path.read_text(encoding="utf-8").splitlines())) > MAX_LINES}
+    assert not long, long
+
+
 def test_the_layer_check_sees_a_cycle(tmp_path, monkeypatch):
     """The cycle finder is not blind: two modules importing each other are reported."""
     import tests.test_layout as layout

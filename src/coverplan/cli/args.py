@@ -161,7 +161,7 @@ def flight_paths(given: list[str]) -> list[str]:
 def flights_and_scene(args):
     """The route ``args.route`` names (route files and missions from other apps, one or several:
     battery flights judged together) and its scene: ``--target``, else the first route file's."""
-    from coverplan.flight.route import join_flights
+    from coverplan.flight.joining import join_flights
 
     paths = flight_paths(args.route)
     plans = [p for p in paths if p.lower().endswith(".json")]
