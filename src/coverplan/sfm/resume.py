@@ -19,7 +19,18 @@ STAGES_FILE = "stages.json"
 
 
 def stage_key(*parts) -> str:
-    """A digest of ``parts`` (numbers, strings, lists, arrays), equal only for equal inputs."""
+    """A digest of ``parts``, equal only for equal inputs.
+
+    Parameters
+    ----------
+    *parts : numbers, strings, lists or arrays
+        What a stage read; arrays by their float64 bytes, the rest as JSON.
+
+    Returns
+    -------
+    str
+        The SHA-256 hex digest.
+    """
     digest = hashlib.sha256()
     for part in parts:
         if isinstance(part, np.ndarray):
@@ -31,7 +42,20 @@ def stage_key(*parts) -> str:
 
 
 def photo_stamps(image_dir: Path, names: list[str]) -> list[tuple[str, int, int]]:
-    """Each photo's name, size (bytes) and modification time (ns): a rewritten photo differs."""
+    """Each photo's name, size and modification time: a photo written again differs.
+
+    Parameters
+    ----------
+    image_dir : Path
+        The photos' folder.
+    names : list of str
+        Their paths inside it.
+
+    Returns
+    -------
+    list of (str, int, int)
+        Name, size (bytes), modification time (ns).
+    """
     stamps = []
     for name in names:
         status = (Path(image_dir) / name).stat()
