@@ -360,3 +360,12 @@ def test_a_bad_photo_folder_is_one_line(tmp_path, capsys, make, words):
     code, _, err = run(capsys, "check", folder, "--target", MESHES / "gabled_house.obj", "--geo-origin", *ORIGIN,
                        "-o", tmp_path / "out")
     assert_one_line_error(code, err, *words)
+
+
+
+def test_no_neighbours_to_match_is_one_line(tmp_path, capsys):
+    (tmp_path / "photos").mkdir()
+    code = main(["check", str(tmp_path / "photos"), "--target", str(MESHES / "gabled_house.obj"),
+                 "-o", str(tmp_path / "out"), "--neighbours", "0"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "--neighbours" in err[0]

@@ -14,6 +14,7 @@ from coverplan.progress import Progress
 from coverplan.sfm.cameras import LENS_MODEL, LENS_MODELS
 from coverplan.sfm.check import WORKING_PX
 from coverplan.sfm.check import check as check_photos
+from coverplan.sfm.colmap import SPATIAL_NEIGHBOURS
 
 
 def cmd_check(args) -> int:
@@ -27,7 +28,7 @@ def cmd_check(args) -> int:
     progress = Progress(bars=not args.quiet, verbose=args.verbose)
     result = check_photos(args.photos, scene, out, gsd=gsd, security=security, threads=args.threads, fit=args.fit,
                           mapper=args.mapper, working_px=args.working_px or None, lens_model=args.lens_model,
-                          progress=progress)
+                          spatial_neighbours=int(check_positive("--neighbours", args.neighbours)), progress=progress)
     for name, why in result.left_out:
         print(f"coverplan: {name} left out: {why}", file=sys.stderr)
     if args.report:
@@ -65,6 +66,9 @@ def register(sub) -> None:
     p.add_argument("--lens-model", choices=tuple(LENS_MODELS), default=LENS_MODEL,
                    help="the distortion COLMAP estimates for photos without DJI DewarpData: one radial term "
                         f"(simple_radial), two (radial) or two radial and two tangential (opencv); default {LENS_MODEL}")
+    p.add_argument("--neighbours", type=int, default=SPATIAL_NEIGHBOURS, metavar="N",
+                   help=f"spatial matching: each photo is matched with its N nearest by the GNSS tags (default "
+                        f"{SPATIAL_NEIGHBOURS}; 20 halves the matching of a 1,000-photo flight)")
     add_mapper_arg(p)
     p.add_argument("--json", action="store_true", help="print the result as JSON")
     p.add_argument("--strict", action="store_true",

@@ -419,7 +419,8 @@ def check(photos_dir, scene, out_dir, *, gsd: float = 0.01, security: float = 3.
                      centre_error_m={"median": float("nan"), "max": float("nan")}, surface=surface,
                      photo_width_px=photo.width, seconds=dict(sfm.seconds),
                      shot_registered=np.array([n in registered for n in names]), sample_points=samples.points,
-                     sample_distance=distance, model_points=pts, conditions="photos", texture="real")
+                     sample_distance=distance, model_points=pts, conditions="photos", texture="real",
+                     mapper=sfm.mapper)
     missing_mask = distance > JUDGING_RADIUS_M
     residual = best.centre_error_m(names, gnss) if best is not None and best.aligned else {}
     unjudged = _why_unjudged(best, apart, fitted, fit)
