@@ -29,6 +29,16 @@ LENS_MODEL = "radial"
 def check_lens_model(name: str) -> str:
     """``name`` if it is one of ``LENS_MODELS``.
 
+    Parameters
+    ----------
+    name : str
+        "simple_radial", "radial" or "opencv".
+
+    Returns
+    -------
+    str
+        ``name``.
+
     Raises
     ------
     ParameterError
@@ -68,6 +78,20 @@ def photo_groups(tags: list, folder, lens_model: str = LENS_MODEL) -> list[Camer
     """The photos of a real flight (``tags``: PhotoTags) grouped by camera: EXIF model, image
     size, focal length and lens calibration; the largest group first. A camera without DJI
     ``DewarpData`` is given ``lens_model``'s distortion terms, starting at zero.
+
+    Parameters
+    ----------
+    tags : list of PhotoTags
+        The photos' metadata (sfm/photos.py).
+    folder : Path
+        Their folder (the names in a group are relative to it).
+    lens_model : str
+        See ``LENS_MODELS``.
+
+    Returns
+    -------
+    list of CameraGroup
+        One per camera, each refined in bundle adjustment.
 
     Raises
     ------

@@ -20,6 +20,32 @@ def read_existing(path, scene, camera, gsd: float, security: float, progress=Non
     A folder holds photos with EXIF GPS and DJI XMP tags (sfm/photos.py); a ``.json`` file is a
     coverplan route; anything else is read as a mission (io/formats.read_mission), photos at
     its photo waypoints, with ``camera``.
+
+    Parameters
+    ----------
+    path : str or Path
+        A photo folder, a route file or a mission file.
+    scene : Scene
+        Its geodetic origin places the photos' tags.
+    camera : Camera
+        The camera a mission's photos are taken with.
+    gsd : float
+        The plan's GSD, m/px, the route the photos become is stamped with.
+    security : float
+        The plan's security distance, m, likewise.
+    progress : Progress, optional
+        Bars for reading a large folder.
+
+    Returns
+    -------
+    ExistingShots
+        The photos' poses in the scene's frame, and what they came from.
+
+    Raises
+    ------
+    InputFileError
+        No such file or folder, a route or mission that takes no photos, or a folder
+        without photos that carry a position.
     """
     p = Path(path)
     if not p.exists():

@@ -11,7 +11,22 @@ def covisible_pairs(seen: list[np.ndarray], cell: float, k: int) -> list[tuple[i
     see most of the same scene (points its pixels hit, counted in cells of ``cell`` metres).
 
     Nearest camera positions are not enough: a flight round a tall block has photos a few
-    metres apart looking at different walls, and photos of one wall from far apart."""
+    metres apart looking at different walls, and photos of one wall from far apart.
+
+    Parameters
+    ----------
+    seen : list of (m_i, 3) float
+        Per photo, the scene points its pixels hit.
+    cell : float
+        Edge of the cells the points are counted in, m.
+    k : int
+        Partners per photo.
+
+    Returns
+    -------
+    list of (int, int)
+        Photo index pairs, i < j, each once.
+    """
     import scipy.sparse as sp
 
     rows, cols = [], []

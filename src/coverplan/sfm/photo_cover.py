@@ -18,8 +18,22 @@ MAX_SAMPLES = 60_000  # judged on at most this many samples (a random, fixed sub
 
 
 def point_ceiling(points: int, area_m2: float, radius_m: float) -> float:
-    """The most surface (%) ``points`` 3D points can put within ``radius_m`` of a sample, on
-    ``area_m2`` of surface: each point reaches a disc of that radius at best."""
+    """The most surface ``points`` 3D points can put within ``radius_m`` of a sample.
+
+    Parameters
+    ----------
+    points : int
+        3D points in the model.
+    area_m2 : float
+        The surface judged, m².
+    radius_m : float
+        The judging radius, m: each point reaches a disc of that radius at best.
+
+    Returns
+    -------
+    float
+        Percent of ``area_m2``, at most 100.
+    """
     if area_m2 <= 0:
         return 100.0
     return float(min(100.0, 100.0 * points * np.pi * radius_m ** 2 / area_m2))
