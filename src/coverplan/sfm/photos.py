@@ -64,10 +64,12 @@ class PhotoTags:
 
     @property
     def rtk_fixed(self) -> bool:
+        """Whether the photo was taken with an RTK fix (DJI ``RtkFlag`` 50)."""
         return self.rtk_flag == RTK_FIXED
 
     @property
     def has_position(self) -> bool:
+        """Whether the tags give latitude, longitude and some height."""
         return bool(np.isfinite(self.lat) and np.isfinite(self.lon)
                     and (np.isfinite(self.relative_altitude_m) or np.isfinite(self.absolute_altitude_m)
                          or np.isfinite(self.gps_altitude_m)))
@@ -83,7 +85,23 @@ class PhotoTags:
 
 
 def read_photo(path) -> PhotoTags:
-    """The metadata of one photo (``InputFileError`` when it is not an image)."""
+    """The metadata of one photo: EXIF, and XMP in any maker's namespace.
+
+    Parameters
+    ----------
+    path : str or Path
+        A JPEG, TIFF or PNG.
+
+    Returns
+    -------
+    PhotoTags
+        What the photo carries; a tag it lacks is NaN, -1 (RtkFlag) or "" (text).
+
+    Raises
+    ------
+    InputFileError
+        The file is not an image Pillow can open.
+    """
     from PIL import Image, UnidentifiedImageError
 
     path = Path(path)
@@ -190,7 +208,24 @@ def _read_xmp(tags: PhotoTags, xmp, path: Path) -> None:
 
 
 def write_photo(path, image: np.ndarray, tags: PhotoTags, quality: int = 95) -> Path:
-    """Write ``image`` (h, w, 3) uint8 as a JPEG carrying ``tags`` as EXIF and DJI XMP."""
+    """Write ``image`` as a JPEG carrying ``tags`` as EXIF and DJI XMP.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write.
+    image : (h, w, 3) uint8
+        The pixels.
+    tags : PhotoTags
+        Position, heights, angles, focal length and, where set, DewarpData.
+    quality : int
+        JPEG quality.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     from PIL import Image
     from PIL.TiffImagePlugin import IFDRational
 
@@ -241,7 +276,23 @@ RAW_SUFFIXES = (".dng", ".arw", ".cr2", ".cr3", ".nef", ".orf", ".raf", ".rw2")
 
 def photo_files(folder) -> list[Path]:
     """The photos in ``folder`` and its subfolders (a DJI card's 100MEDIA, 101MEDIA, ... or
-    one folder per battery flight), sorted by their path; hidden folders are left out."""
+    one folder per battery flight), sorted by their path; hidden folders are left out.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The card or folder.
+
+    Returns
+    -------
+    list of Path
+        JPEG, TIFF and PNG files.
+
+    Raises
+    ------
+    InputFileError
+        No such folder, or one without photos.
+    """
     folder = Path(folder)
     if not folder.is_dir():
         raise InputFileError(folder, "no such folder" if not folder.exists() else "is not a folder of photos")
@@ -254,7 +305,18 @@ def photo_files(folder) -> list[Path]:
 
 def raw_files(folder) -> list[tuple[str, str]]:
     """The raw files in ``folder`` (as (name, why) rows of what is left out): COLMAP reads JPEG,
-    TIFF and PNG; a raw file beside its JPEG is the same photo."""
+    TIFF and PNG; a raw file beside its JPEG is the same photo.
+
+    Parameters
+    ----------
+    folder : str or Path
+        The card or folder.
+
+    Returns
+    -------
+    list of (str, str)
+        Each raw file's path inside ``folder`` and why it is left out.
+    """
     folder = Path(folder)
     out = []
     for p in sorted(folder.rglob("*")):
@@ -266,7 +328,17 @@ def raw_files(folder) -> list[tuple[str, str]]:
 
 
 def whole_image(path) -> bool:
-    """False for a JPEG cut short (no end-of-image marker and Pillow cannot decode it all)."""
+    """False for a JPEG cut short (no end-of-image marker and Pillow cannot decode it all).
+
+    Parameters
+    ----------
+    path : str or Path
+        A photo; other formats than JPEG count as whole.
+
+    Returns
+    -------
+    bool
+    """
     from PIL import Image
 
     path = Path(path)
@@ -291,7 +363,34 @@ def write_flight_photos(route, scene, folder, width: int = 1024, seed: int = 0, 
     the take-off point and above sea level, gimbal yaw and pitch, focal length and the
     sensor's pixel size. ``shots``: indices into ``route.shots`` to write (default all).
     ``lens``: the photos are drawn through it and, with ``dewarp_data``, carry its calibration
-    as DJI's DewarpData tag (in the written photo's pixels)."""
+    as DJI's DewarpData tag (in the written photo's pixels).
+
+    Parameters
+    ----------
+    route : Route
+        The flight; its scene frame is placed by ``scene``'s geodetic origin.
+    scene : Scene
+        Rendered, and the origin of the GPS tags.
+    folder : str or Path
+        Made if missing; photos are named DJI_0001.JPG, ... in the order they are taken.
+    width : int
+        Photo width, px (the height follows the camera's aspect).
+    seed : int
+        The renderer's seed.
+    shots : (k,) int, optional
+        Indices into ``route.shots``.
+    progress : callable, optional
+        Called with 1 after each photo.
+    lens : Lens
+        The distortion the photos are drawn through.
+    dewarp_data : bool
+        Tag a distorted photo with its calibration.
+
+    Returns
+    -------
+    list of Path
+        The written photos.
+    """
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     photo = PhotoCamera.of(route.camera, width, lens)
