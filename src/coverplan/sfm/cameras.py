@@ -62,7 +62,19 @@ class CameraGroup:
 
     @classmethod
     def known(cls, photo: PhotoCamera, names: list) -> "CameraGroup":
-        """The camera that drew ``photo``'s rendered photos, exactly."""
+        """The camera that drew ``photo``'s rendered photos, exactly, not refined.
+
+        Parameters
+        ----------
+        photo : PhotoCamera
+            The renderer's camera and lens.
+        names : list of str
+            The photos it drew.
+
+        Returns
+        -------
+        CameraGroup
+        """
         centre = (photo.fx, photo.fy, photo.cx, photo.cy)
         if photo.lens.is_pinhole:
             return cls(photo, list(names), "PINHOLE", centre, False, "pinhole")

@@ -63,6 +63,22 @@ CONDITIONS = {
 
 
 def get_conditions(name: str) -> Conditions:
+    """The field conditions called ``name``.
+
+    Parameters
+    ----------
+    name : str
+        One of ``CONDITIONS`` (any case).
+
+    Returns
+    -------
+    Conditions
+
+    Raises
+    ------
+    ParameterError
+        Any other name.
+    """
     try:
         return CONDITIONS[str(name).lower()]
     except KeyError:
@@ -94,7 +110,22 @@ class FlownPhotos:
 
 def photo_times(route, model: FlightModel, photo_interval_s: float | None = None) -> np.ndarray:
     """Seconds from the first take-off at each of the route's photos (battery swaps included),
-    through the route's pass speeds where it flies through."""
+    through the route's pass speeds where it flies through.
+
+    Parameters
+    ----------
+    route : Route
+        The flight (n waypoints).
+    model : FlightModel
+        The drone's flight-time model.
+    photo_interval_s : float, optional
+        Least time between photos in passing, s (default: the model's).
+
+    Returns
+    -------
+    (n,) float
+        Seconds at each waypoint.
+    """
     p = route.positions
     legs = np.zeros(len(p))
     if len(p) > 1:

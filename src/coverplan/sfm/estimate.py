@@ -22,7 +22,21 @@ REFERENCE_PX, REFERENCE_FEATURES = 640, 4096
 
 def matched_pairs(photos: int, exhaustive_limit: int, neighbours: int) -> int:
     """Pairs COLMAP matches: every pair up to ``exhaustive_limit`` photos, else about three
-    quarters of each photo's ``neighbours`` (pairs found from both ends count once)."""
+    quarters of each photo's ``neighbours`` (pairs found from both ends count once).
+
+    Parameters
+    ----------
+    photos : int
+        Photos in the flight.
+    exhaustive_limit : int
+        Up to this many, every pair is matched.
+    neighbours : int
+        Spatial matching's neighbours per photo.
+
+    Returns
+    -------
+    int
+    """
     if photos <= exhaustive_limit:
         return photos * (photos - 1) // 2
     return int(0.75 * photos * min(neighbours, photos - 1))

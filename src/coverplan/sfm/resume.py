@@ -101,11 +101,27 @@ class WorkFolder:
         (self.path / STAGES_FILE).write_text(text)
 
     def has(self, stage: str) -> bool:
-        """Whether ``stage`` finished in an earlier run with the inputs of this one."""
+        """Whether ``stage`` finished in an earlier run with the inputs of this one.
+
+        Parameters
+        ----------
+        stage : str
+            One of the ``keys``.
+
+        Returns
+        -------
+        bool
+        """
         return stage in self.kept
 
     def finished(self, stage: str) -> None:
-        """Record that ``stage`` finished, so a rerun keeps it."""
+        """Record that ``stage`` finished, so a rerun keeps it.
+
+        Parameters
+        ----------
+        stage : str
+            One of the ``keys``.
+        """
         if stage not in self.kept:
             self.kept.append(stage)
         self._write()
