@@ -20,7 +20,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from common import MESHES, RESULTS, write_json
+from common import MESHES, result_path, write_json
 from coverplan import load_scene, plan
 from coverplan.equipment.drones import get_drone
 from coverplan.progress import Progress
@@ -81,7 +81,7 @@ def main(argv=None):
 
 def merged_rows(name: str, quick: bool, row: dict) -> list[dict]:
     """The rows already in results/NAME.json, with ``row`` in place of one measured alike."""
-    path = RESULTS / (f"{name}_quick.json" if quick else f"{name}.json")
+    path = result_path(name, quick)
     same = ("scene", "gsd_mm", "width_px", "neighbours")
     try:
         rows = json.loads(path.read_text())["rows"]

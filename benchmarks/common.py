@@ -81,9 +81,14 @@ def machine() -> dict:
             "cpus": os.cpu_count(), "python": platform.python_version()}
 
 
+def result_path(name: str, quick: bool) -> Path:
+    """Where ``write_json`` writes benchmark ``name``'s results."""
+    return RESULTS / (f"{name}_quick.json" if quick else f"{name}.json")
+
+
 def write_json(name: str, quick: bool, payload: dict) -> Path:
     RESULTS.mkdir(exist_ok=True)
-    path = RESULTS / (f"{name}_quick.json" if quick else f"{name}.json")
+    path = result_path(name, quick)
     path.write_text(json.dumps({"machine": machine(), **payload}, indent=1, default=float))
     return path
 

@@ -362,10 +362,10 @@ def test_a_bad_photo_folder_is_one_line(tmp_path, capsys, make, words):
     assert_one_line_error(code, err, *words)
 
 
-
 def test_no_neighbours_to_match_is_one_line(tmp_path, capsys):
+    from tests.test_bad_input import assert_one_line_error, run
+
     (tmp_path / "photos").mkdir()
-    code = main(["check", str(tmp_path / "photos"), "--target", str(MESHES / "gabled_house.obj"),
-                 "-o", str(tmp_path / "out"), "--neighbours", "0"])
-    err = capsys.readouterr().err.strip().splitlines()
-    assert code == 2 and len(err) == 1 and "--neighbours" in err[0]
+    code, _, err = run(capsys, "check", tmp_path / "photos", "--target", MESHES / "gabled_house.obj",
+                       "-o", tmp_path / "out", "--neighbours", "0")
+    assert_one_line_error(code, err, "--neighbours")

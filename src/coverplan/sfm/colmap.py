@@ -287,10 +287,11 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     # draw verifies the same inliers, pair for pair, on every run.
     verification = pycolmap.TwoViewGeometryOptions()
     verification.ransac.random_seed = int(seed)
+    if folder.has("features") and not folder.has("matching"):
+        _clear_matches(pycolmap, database)
     if folder.has("matching"):
         _kept(progress, "SfM matching", database)
     elif exhaustive:
-        _clear_matches(pycolmap, database)
         total = len(names) * (len(names) - 1) // 2
         with _colmap_failure("exhaustive matching", database), \
                 _stage(progress, "SfM matching", total=total, unit="pair") as tick:
@@ -298,7 +299,6 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
                 database, matching_options=matching, verification_options=verification,
                 device=pycolmap.Device.cpu, cancellation_token=token), database, "two_view_geometries", total, tick)
     else:
-        _clear_matches(pycolmap, database)
         if matching_kind == "spatial":
             with _colmap_failure("writing the GNSS positions as pose priors", database):
                 write_position_priors(pycolmap, database, names, recorded, 1.0)
@@ -342,9 +342,7 @@ def _kept(progress, stage: str, database: Path) -> None:
 
 
 def _clear_matches(pycolmap, database: Path) -> None:
-    """Drop matches a killed run left half written (a fresh database has none)."""
-    if not database.exists():
-        return
+    """Drop the matches a run stopped during matching left half written."""
     db = open_database(pycolmap, database)
     try:
         db.clear_matches()
