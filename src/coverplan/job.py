@@ -17,7 +17,19 @@ from coverplan.report import write_figures, write_html_report
 
 @dataclass(frozen=True)
 class JobResult:
-    """The route, the evaluator's verdict (None when not evaluated) and the files written."""
+    """The route, the evaluator's verdict (None when not evaluated) and the files written.
+
+    Parameters
+    ----------
+    route : Route
+        The planned route.
+    evaluation : Evaluation or None
+        The evaluator's verdict.
+    written : list of Path
+        Every file written, route file first.
+    exports_withheld : bool
+        True when the evaluator found the route unsafe and no mission was written.
+    """
 
     route: Route
     evaluation: Evaluation | None
@@ -29,7 +41,34 @@ def write_pictures(route: Route, scene, evaluation: Evaluation | None, report=No
                    progress: Progress | None = None, simulation=None, title: str | None = None,
                    check=None) -> list[Path]:
     """The HTML report (``report``: its path) and PNG figures (``plot``: their folder);
-    ``simulation`` or ``check`` (a Check) adds what SfM made of the photos."""
+    ``simulation`` or ``check`` (a Check) adds what SfM made of the photos.
+
+    Parameters
+    ----------
+    route : Route
+        The route to draw.
+    scene : Scene
+        The scene it was planned for.
+    evaluation : Evaluation or None
+        The evaluator's verdict, drawn as coverage; None draws the route alone.
+    report : str or Path, optional
+        The HTML report to write.
+    plot : str or Path, optional
+        The folder for the PNG figures.
+    progress : Progress, optional
+        Reports the drawing stages.
+    simulation : Simulation, optional
+        A simulated reconstruction to show.
+    title : str, optional
+        The report's title; the route file's name when None.
+    check : Check, optional
+        A check of real photos to show.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
     progress = progress or Progress()
     written = []
     if report:
@@ -50,16 +89,35 @@ def run_job(scene, camera, out, *, formats=(), export_options: dict | None = Non
     Parameters
     ----------
     scene : Scene
+        The scene to plan.
     camera : Camera
-    out : path
+        The camera flown.
+    out : str or Path
         The route file; exports are named after it without ``.json`` (``export_route``).
     formats : sequence of str
         Export formats (``io.writer_names()``). Withheld when the evaluator finds the route unsafe.
+    export_options : dict, optional
+        Keyword arguments of the writers (``export_route``).
     evaluated : bool
         Run the evaluator (always when a report or figures are asked).
-    plan_options
+    report : str or Path, optional
+        The HTML report to write.
+    plot : str or Path, optional
+        The folder for the PNG figures.
+    title : str, optional
+        The report's title.
+    start : (3,) float, optional
+        The take-off point in the local frame; the planner picks one when None.
+    progress : Progress, optional
+        Reports the long stages.
+    **plan_options
         ``plan``'s keyword arguments (PlanSettings fields, ``drone``, ``flight_model``), and
         ``keep_out`` / ``keep_in``: zone files, read in the scene's frame (io/zones.py).
+
+    Returns
+    -------
+    JobResult
+        The route, its evaluation and the files written.
     """
     progress = progress or Progress()
     out = Path(out)

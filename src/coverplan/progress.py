@@ -11,7 +11,21 @@ from contextlib import contextmanager
 class Progress:
     """Reports long stages. Bars only when ``bars`` and the stream is a terminal; with ``lines``
     as well, a stream that is not a terminal (a log file, a CI job) gets a line per tenth of
-    each counted stage, with the time left."""
+    each counted stage, with the time left.
+
+    Parameters
+    ----------
+    bars : bool
+        Show a bar per counted stage when the stream is a terminal.
+    verbose : bool
+        Print each stage's time when it ends.
+    stream : file object, optional
+        Where bars and lines go; standard error when None.
+    lines : bool
+        On a stream that is not a terminal, print a line per tenth of each counted stage.
+    line_period_s : float
+        The shortest time in seconds between two such lines.
+    """
 
     def __init__(self, bars: bool = False, verbose: bool = False, stream=None, lines: bool = False,
                  line_period_s: float = 5.0):
@@ -25,7 +39,22 @@ class Progress:
 
     @contextmanager
     def stage(self, name: str, total: int | None = None, unit: str = "it"):
-        """Time a stage; yields ``update(n)`` to advance its bar."""
+        """Time a stage; yields ``update(n)`` to advance its bar.
+
+        Parameters
+        ----------
+        name : str
+            The stage's name, shown on its bar and in ``timings``.
+        total : int, optional
+            How many units the stage counts; None shows no bar.
+        unit : str
+            The unit's name on the bar.
+
+        Yields
+        ------
+        callable
+            ``update(n)``, which advances the bar by ``n`` units.
+        """
         start = time.perf_counter()
         bar = None
         if self.bars:
@@ -45,19 +74,47 @@ class Progress:
                 print(f"[coverplan] {name}: {elapsed:.2f} s", file=self.stream)
 
     def note(self, text: str) -> None:
+        """Print ``text`` as a line of its own when verbose, without breaking a bar.
+
+        Parameters
+        ----------
+        text : str
+            The line, without its newline.
+        """
         if self.verbose:
             print(f"[coverplan] {text}", file=self.stream)
 
 
 class LineBar:
     """A progress bar as lines: one at each tenth of ``total`` (at most one per ``period_s``),
-    with the count, the share and the time left at the rate so far, and one at the end."""
+    with the count, the share and the time left at the rate so far, and one at the end.
+
+    Parameters
+    ----------
+    name : str
+        The stage's name, at the start of each line.
+    total : float
+        The count at which the stage is done.
+    unit : str
+        The unit's name.
+    stream : file object
+        Where the lines go.
+    period_s : float
+        The shortest time in seconds between two lines.
+    """
 
     def __init__(self, name: str, total: float, unit: str, stream, period_s: float = 5.0):
         self.name, self.total, self.unit, self.stream, self.period_s = name, float(total), unit, stream, period_s
         self.done, self.start, self.last, self.shown = 0.0, time.perf_counter(), 0.0, 0
 
     def update(self, n: float = 1) -> None:
+        """Advance the count, printing a line when it crosses the next tenth.
+
+        Parameters
+        ----------
+        n : float
+            Units done since the last call.
+        """
         self.done += n
         tenth = int(10 * self.done / self.total) if self.total else 10
         now = time.perf_counter() - self.start
@@ -69,12 +126,24 @@ class LineBar:
                   file=self.stream, flush=True)
 
     def close(self) -> None:
+        """Print the closing line with the stage's total time."""
         print(f"[coverplan] {self.name}: done in {format_duration(time.perf_counter() - self.start)}",
               file=self.stream, flush=True)
 
 
 def format_duration(seconds: float) -> str:
-    """Seconds as a person says them: "40 s", "3 min", "1 h 05 min"."""
+    """Seconds as a person says them: "40 s", "3 min", "1 h 05 min".
+
+    Parameters
+    ----------
+    seconds : float
+        A duration.
+
+    Returns
+    -------
+    str
+        The duration rounded to seconds, minutes, or hours and minutes.
+    """
     seconds = max(float(seconds), 0.0)
     if seconds < 90:
         return f"{seconds:.0f} s"

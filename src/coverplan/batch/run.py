@@ -40,7 +40,29 @@ ALLOWED_FAILURES = 1  # a task that kills two workers is not retried a third tim
 
 @dataclass
 class BatchSettings:
-    """What every building of the batch is planned with (the flags ``plan`` takes)."""
+    """What every building of the batch is planned with (the flags ``plan`` takes).
+
+    Parameters
+    ----------
+    camera : Camera
+        The camera flown over every building.
+    plan_options : dict
+        ``plan``'s keyword arguments (PlanSettings fields).
+    exports : list of str
+        Export formats written per building.
+    export_options : dict
+        Keyword arguments of the writers.
+    report : bool
+        Write each building's HTML report.
+    merge_obstacles_within : float, optional
+        Merge neighbours closer than this many metres into one obstacle.
+    context_radius : float, optional
+        Metres around the building whose neighbours are obstacles.
+    lod : int, optional
+        The city model's level of detail to read.
+    terrain : str, optional
+        A DTM raster read as the ground.
+    """
 
     camera: Camera
     plan_options: dict  # planner.plan's keyword arguments
@@ -60,7 +82,13 @@ class BatchSettings:
             self.terrain = str(path.resolve())  # workers may start in another folder
 
     def fingerprint(self) -> str:
-        """Changes with any setting that changes a building's outputs."""
+        """Changes with any setting that changes a building's outputs.
+
+        Returns
+        -------
+        str
+            A hex digest of the settings.
+        """
         def plain(value):
             if is_dataclass(value):
                 return asdict(value)
@@ -79,7 +107,21 @@ class BatchSettings:
 
 @dataclass
 class BuildingJob:
-    """One task: a building's neighbourhood and the settings to plan it with."""
+    """One task: a building's neighbourhood and the settings to plan it with.
+
+    Parameters
+    ----------
+    id : str
+        The building's id in the city model.
+    folder : str
+        Its folder name under ``OUT/buildings``.
+    neighbourhood : Neighbourhood
+        The building and the obstacles around it.
+    settings : BatchSettings
+        What it is planned with.
+    key : str
+        The fingerprint its outputs are recorded under.
+    """
 
     id: str
     folder: str
@@ -91,7 +133,23 @@ class BuildingJob:
 # -- choosing buildings -----------------------------------------------------------------------
 
 def parse_where(items: list[str] | None) -> list[tuple[str, str]]:
-    """ATTR=VALUE pairs (a ParameterError for anything else)."""
+    """ATTR=VALUE pairs (a ParameterError for anything else).
+
+    Parameters
+    ----------
+    items : list of str or None
+        ``ATTR=VALUE`` strings as given on the command line.
+
+    Returns
+    -------
+    list of (str, str)
+        The attribute and value of each item.
+
+    Raises
+    ------
+    ParameterError
+        An item without ``=`` or with an empty attribute.
+    """
     pairs = []
     for item in items or []:
         attr, sep, value = item.partition("=")
@@ -115,7 +173,26 @@ def _matches(value, wanted: str) -> bool:
 def select_buildings(model: CityModel, ids: list[str] | None = None, everything: bool = False,
                      bbox: list[float] | None = None, where: list[tuple[str, str]] | None = None) -> list[CityObject]:
     """The buildings a batch plans: by id, all, those centred in ``bbox`` (file coordinates,
-    xmin ymin xmax ymax) and/or whose attributes equal every ``where`` value."""
+    xmin ymin xmax ymax) and/or whose attributes equal every ``where`` value.
+
+    Parameters
+    ----------
+    model : CityModel
+        The city model read.
+    ids : list of str, optional
+        Building ids to plan.
+    everything : bool
+        Plan every building.
+    bbox : list of float, optional
+        ``xmin ymin xmax ymax`` in the file's coordinates.
+    where : list of (str, str), optional
+        Attribute values every chosen building has.
+
+    Returns
+    -------
+    list of CityObject
+        The chosen buildings, in the file's order.
+    """
     buildings = model.buildings
     if not buildings:
         raise InputFileError(model.path, "holds no building with 3D geometry (LoD 1 or higher)")
@@ -148,7 +225,18 @@ def select_buildings(model: CityModel, ids: list[str] | None = None, everything:
 
 
 def folder_names(objects: list[CityObject]) -> list[str]:
-    """A file-system-safe, unique folder name per building id."""
+    """A file-system-safe, unique folder name per building id.
+
+    Parameters
+    ----------
+    objects : list of CityObject
+        The chosen buildings.
+
+    Returns
+    -------
+    list of str
+        One folder name per building, in the same order.
+    """
     names, used = [], set()
     for obj in objects:
         base = re.sub(r"[^A-Za-z0-9._-]+", "_", obj.id).strip("._") or "building"
@@ -167,6 +255,16 @@ def plan_building(job: BuildingJob) -> dict:
 
     Runs on a Dask worker. Errors become a 'failed' row rather than a raised exception, so the
     row carries the message a user can act on.
+
+    Parameters
+    ----------
+    job : BuildingJob
+        The building and its settings.
+
+    Returns
+    -------
+    dict
+        ``row``: the summary row (status, photos, coverage, message); ``files``: name to bytes.
     """
     started = time.perf_counter()
     row = {"id": job.id, "folder": job.folder, "key": job.key}
@@ -234,7 +332,22 @@ def _worker_memory_budget() -> float | None:
 
 def write_building(out_dir: Path, row: dict, files: dict[str, bytes]) -> Path:
     """Put a building's files in OUT/buildings/FOLDER atomically: a temporary folder with
-    ``result.json`` written last, renamed into place."""
+    ``result.json`` written last, renamed into place.
+
+    Parameters
+    ----------
+    out_dir : Path
+        The batch's output folder.
+    row : dict
+        The building's summary row (its ``folder`` names the destination).
+    files : dict of str to bytes
+        The building's output files.
+
+    Returns
+    -------
+    Path
+        The building's folder.
+    """
     parent = out_dir / "buildings"
     parent.mkdir(parents=True, exist_ok=True)
     final = parent / row["folder"]
@@ -267,7 +380,22 @@ def write_building(out_dir: Path, row: dict, files: dict[str, bytes]) -> Path:
 
 
 def completed_row(out_dir: Path, folder: str, key: str) -> dict | None:
-    """The recorded row of a building whose folder is complete and valid for ``key``, else None."""
+    """The recorded row of a building whose folder is complete and valid for ``key``, else None.
+
+    Parameters
+    ----------
+    out_dir : Path
+        The batch's output folder.
+    folder : str
+        The building's folder name.
+    key : str
+        The fingerprint the row must have been written under.
+
+    Returns
+    -------
+    dict or None
+        The row from ``result.json``.
+    """
     record_path = out_dir / "buildings" / folder / RESULT
     try:
         record = json.loads(record_path.read_text(encoding="utf-8"))
@@ -294,6 +422,23 @@ def completed_row(out_dir: Path, folder: str, key: str) -> dict | None:
 
 @dataclass
 class BatchResult:
+    """What a batch did: a row per building, the folder, and how many were planned now or kept.
+
+    Parameters
+    ----------
+    rows : list of dict
+        One summary row per chosen building.
+    out_dir : Path
+        The batch's output folder.
+    planned_now : int
+        Buildings planned in this run.
+    skipped : int
+        Buildings kept from an earlier run with the same settings.
+    seconds : float
+        The run's wall time.
+    written : list of Path
+        The summary files written.
+    """
     rows: list[dict]  # one per selected building, in selection order
     out_dir: Path
     planned_now: int
@@ -303,6 +448,7 @@ class BatchResult:
 
     @property
     def failed(self) -> list[dict]:
+        """The rows of the buildings that were not planned."""
         return [r for r in self.rows if r.get("status") != "planned"]
 
 
@@ -317,6 +463,38 @@ def run_batch(city: str | Path | CityModel, out_dir: str | Path, settings: Batch
     of a running Dask scheduler to use instead. ``progress`` (a progress.Progress) draws the
     bar; ``log_lines`` prints a line per building instead. ``task`` is what each worker runs
     (for custom pipelines and fault tests).
+
+    Parameters
+    ----------
+    city : str, Path or CityModel
+        A CityGML or CityJSON file, or a model already read.
+    out_dir : str or Path
+        The output folder.
+    settings : BatchSettings
+        What every building is planned with.
+    buildings : list of str, optional
+        Building ids to plan.
+    everything : bool
+        Plan every building.
+    bbox : list of float, optional
+        ``xmin ymin xmax ymax`` in the file's coordinates.
+    where : list of (str, str), optional
+        Attribute values every chosen building has.
+    workers : int, optional
+        Size of the local cluster.
+    scheduler : str, optional
+        Address of a running Dask scheduler.
+    progress : Progress, optional
+        Draws the bar.
+    log_lines : bool
+        Print a line per building.
+    task : callable
+        Runs one ``BuildingJob`` and returns its row and files.
+
+    Returns
+    -------
+    BatchResult
+        The rows and counts.
     """
 
     started = time.perf_counter()

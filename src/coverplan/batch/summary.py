@@ -20,7 +20,26 @@ COLUMNS = ["id", "status", "shots", "path_length_m", "flight_time_min", "flights
 
 
 def write_summary(model, chosen, rows: list[dict], out_dir: Path, settings) -> list[Path]:
-    """Write the three summary files for ``rows`` (one per building of ``chosen``)."""
+    """Write the three summary files for ``rows`` (one per building of ``chosen``).
+
+    Parameters
+    ----------
+    model : CityModel
+        The city model, for the buildings' footprints.
+    chosen : list of CityObject
+        The buildings planned.
+    rows : list of dict
+        Their summary rows, in the same order.
+    out_dir : Path
+        The batch's output folder.
+    settings : BatchSettings
+        The settings, recorded beside the rows.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
     footprints = [model.footprint(obj, settings.lod) for obj in chosen]
     written = [write_atomic(out_dir / "summary.csv", _csv(rows))]
     written.append(write_atomic(out_dir / "summary.geojson", _geojson(model, footprints, rows)))

@@ -38,7 +38,22 @@ RULES = ("strict", "thesis")
 
 def view_limits(route: Route, scene, rule: str = "strict") -> ViewLimits:
     """The viewpoint rules a route declares in its params, in the scene's frame. Under the
-    thesis's rule a point only has to face the camera (incidence < 90 deg)."""
+    thesis's rule a point only has to face the camera (incidence < 90 deg).
+
+    Parameters
+    ----------
+    route : Route
+        The route whose params give the security distance, d_opt and incidence limit.
+    scene : Scene
+        The scene judged.
+    rule : {"strict", "thesis"}
+        ``"thesis"`` keeps only the facing condition.
+
+    Returns
+    -------
+    ViewLimits
+        The rules a view must meet.
+    """
     ground = route.params.get("ground_z_m", scene.ground_z)
     min_alt = route.params.get("min_altitude_m", route.security)
     lo, hi = route.params.get("gimbal_pitch_range_deg", (-90.0, 90.0))
@@ -102,10 +117,12 @@ class Evaluation:
 
     @property
     def safe(self) -> bool:
+        """True when no part of the flight comes closer than the security distance to anything."""
         return bool(self.metrics["safe"])
 
     @property
     def coverage_pct(self) -> float:
+        """The share of the target surface covered, in percent."""
         return float(self.metrics["coverage_pct"])
 
     def table(self) -> str:
@@ -218,7 +235,20 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
 def photo_poses(route: Route) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Positions (k, 3), headings and pitches (k,) of every photo the route's coverage counts:
     its own, where the drone takes them (flown through, off the planned point), then the photos
-    already taken that it was planned around (``params.existing_photos``)."""
+    already taken that it was planned around (``params.existing_photos``).
+
+    Parameters
+    ----------
+    route : Route
+        The route judged.
+
+    Returns
+    -------
+    positions : (k, 3) float
+        Camera centres in the local frame, metres.
+    headings, pitches : (k,) float
+        Degrees (heading clockwise from north, pitch negative down).
+    """
     rows = route.shots
     pos, heading, pitch = route.flown_positions()[rows], route.heading_deg[rows], route.pitch_deg[rows]
     taken = route.params.get("existing_photos") or {}
@@ -230,7 +260,18 @@ def photo_poses(route: Route) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def match_rule(route: Route) -> MatchRule:
-    """The rule for linking photos that a route declares (the defaults when it declares none)."""
+    """The rule for linking photos that a route declares (the defaults when it declares none).
+
+    Parameters
+    ----------
+    route : Route
+        The route whose params may set ``max_pair_deg``, ``min_overlap`` and the rest.
+
+    Returns
+    -------
+    MatchRule
+        The rule the evaluator links photos by.
+    """
     d = MatchRule()
     return MatchRule(float(route.params.get("max_pair_deg") or d.max_pair_deg),
                      float(route.params.get("min_overlap") or d.min_overlap),
@@ -239,7 +280,22 @@ def match_rule(route: Route) -> MatchRule:
 
 
 def shot_graph(route: Route, samples: SurfaceSamples, pairs) -> dict:
-    """Which photos SfM should match (reconstructability.py), measured on these samples."""
+    """Which photos SfM should match (reconstructability.py), measured on these samples.
+
+    Parameters
+    ----------
+    route : Route
+        The route judged.
+    samples : SurfaceSamples
+        The evaluator's samples of the target surface.
+    pairs : tuple of (m,) int arrays
+        Photo index, sample index and a third array for every visible (photo, sample) pair.
+
+    Returns
+    -------
+    dict
+        The link graph's summary (components, weak photos) with the rule it used.
+    """
     import scipy.sparse as sp
 
     cam, pt, _ = pairs

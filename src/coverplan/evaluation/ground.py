@@ -12,6 +12,13 @@ def heights_above_ground(points, limits: ViewLimits) -> tuple[np.ndarray, np.nda
     """Per segment of the polyline, its lowest and its greatest height above the ground (flat
     or terrain: at every crossing of the ground's grid).
 
+    Parameters
+    ----------
+    points : (n, 3) float
+        The flown polyline in the local frame.
+    limits : ViewLimits
+        Gives the ground: flat (``ground_z``) or terrain.
+
     Returns
     -------
     lowest, highest : (n - 1,) float
@@ -28,6 +35,15 @@ def heights_above_ground(points, limits: ViewLimits) -> tuple[np.ndarray, np.nda
 def ground_clearance(points, scene, security: float) -> tuple[float | None, np.ndarray]:
     """Over terrain, the polyline's least distance from the ground's triangles in 3D (FCL where
     a segment may come within ``security``) and the segments that come closer than it.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        The flown polyline in the local frame.
+    scene : Scene
+        Its terrain, if any, is measured.
+    security : float
+        The security distance in metres.
 
     Returns
     -------

@@ -21,7 +21,18 @@ def _worst_class(pct: dict) -> str:
 
 
 def format_metrics(m: dict) -> str:
-    """A terminal table of the metrics."""
+    """A terminal table of the metrics.
+
+    Parameters
+    ----------
+    m : dict
+        ``Evaluation.metrics``.
+
+    Returns
+    -------
+    str
+        One line per metric, names aligned.
+    """
     def stats(name, s, unit=""):
         return (name, f"min {_fmt(s['min'], unit)}  max {_fmt(s['max'], unit)}  mean {_fmt(s['mean'], unit)}")
     rows = [

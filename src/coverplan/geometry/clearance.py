@@ -28,7 +28,18 @@ def _bvh(vertices, faces) -> fcl.CollisionObject:
 
 
 def mesh_distance(a, b) -> float:
-    """Smallest distance between two meshes' surfaces (0 when they touch or cross)."""
+    """Smallest distance between two meshes' surfaces (0 when they touch or cross).
+
+    Parameters
+    ----------
+    a, b : trimesh.Trimesh
+        The meshes.
+
+    Returns
+    -------
+    float
+        Metres.
+    """
     result = fcl.DistanceResult()
     d = fcl.distance(_bvh(a.vertices, a.faces), _bvh(b.vertices, b.faces), fcl.DistanceRequest(), result)
     return max(float(d), 0.0)
@@ -39,6 +50,18 @@ def surface_lattice(triangles, max_edge: float) -> np.ndarray:
 
     Each triangle is split into n^2 similar sub-triangles (n = ceil(longest edge / max_edge));
     the points are their corners (barycentric lattice), shared corners repeated.
+
+    Parameters
+    ----------
+    triangles : (m, 3, 3) float
+        Triangle corners.
+    max_edge : float
+        The longest sub-triangle edge, metres.
+
+    Returns
+    -------
+    (n, 3) float
+        The lattice points.
     """
     triangles = np.asarray(triangles, dtype=float).reshape(-1, 3, 3)
     edges = np.linalg.norm(triangles - np.roll(triangles, 1, axis=1), axis=2).max(axis=1)
@@ -60,6 +83,20 @@ def surface_cover(mesh, max_edge: float) -> tuple[np.ndarray, float]:
 
     The mesh's own vertices, plus a barycentric lattice on triangles longer than ``max_edge``;
     fine meshes (scans) thus cost no more points than they have vertices.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        The mesh.
+    max_edge : float
+        The longest lattice edge, metres.
+
+    Returns
+    -------
+    points : (n, 3) float
+        Points on the surface.
+    radius : float
+        Every surface point lies within it of a point.
     """
     tri = mesh.triangles
     if len(tri) == 0:
@@ -74,7 +111,18 @@ def surface_cover(mesh, max_edge: float) -> tuple[np.ndarray, float]:
 
 
 def rotations_z_to(directions) -> np.ndarray:
-    """Rotation matrices (n, 3, 3) taking +z onto each unit vector in ``directions``."""
+    """Rotation matrices (n, 3, 3) taking +z onto each unit vector in ``directions``.
+
+    Parameters
+    ----------
+    directions : (n, 3) float
+        Unit vectors.
+
+    Returns
+    -------
+    (n, 3, 3) float
+        Rotation matrices.
+    """
     d = np.asarray(directions, dtype=float).reshape(-1, 3)
     v = np.column_stack([-d[:, 1], d[:, 0], np.zeros(len(d))])  # z x d
     c = d[:, 2]
@@ -104,7 +152,17 @@ LOCAL_BELOW_TRIANGLES = HALVING_FROM_TRIANGLES
 
 
 class ClearanceModel:
-    """Distances from points and segments to a list of meshes."""
+    """Distances from points and segments to a list of meshes.
+
+    Parameters
+    ----------
+    meshes : sequence of trimesh.Trimesh
+        The meshes measured against.
+    rays : RayCaster, optional
+        A ray caster over the same meshes, for inside tests.
+    cover_edge : float, optional
+        The lattice edge of the dense surface points; from the meshes' size when None.
+    """
 
     def __init__(self, meshes, rays=None, cover_edge: float | None = None):
         self.meshes = list(meshes)
@@ -160,6 +218,20 @@ class ClearanceModel:
 
         Beyond ``limit`` the answer is inf (mesh -1): bounded searches end early, which matters
         for points far from a scan's millions of vertices.
+
+        Parameters
+        ----------
+        points : (n, 3) float
+            Query points.
+        limit : float
+            The search radius, metres.
+
+        Returns
+        -------
+        distance : (n,) float
+            Metres, inf beyond ``limit``.
+        mesh : (n,) int
+            The nearest mesh, -1 beyond ``limit``.
         """
         points = np.asarray(points, dtype=float).reshape(-1, 3)
         if self._tree is None:
@@ -173,7 +245,20 @@ class ClearanceModel:
 
     def lower_bound(self, points, limit: float = np.inf) -> np.ndarray:
         """A lower bound of the distance from each point to the nearest surface (at most
-        ``limit`` - cover radius when nothing is within ``limit``)."""
+        ``limit`` - cover radius when nothing is within ``limit``).
+
+        Parameters
+        ----------
+        points : (n, 3) float
+            Query points.
+        limit : float
+            The search radius, metres.
+
+        Returns
+        -------
+        (n,) float
+            Metres.
+        """
         d, _ = self.kd_distance(points, limit)
         return np.maximum(np.minimum(d, limit) - self.cover_radius, 0.0)
 
@@ -286,7 +371,20 @@ class ClearanceModel:
 
     # -- numbers --------------------------------------------------------------------
     def point_distance(self, points) -> tuple[np.ndarray, np.ndarray]:
-        """Exact distance from each point to the nearest mesh, and that mesh's index."""
+        """Exact distance from each point to the nearest mesh, and that mesh's index.
+
+        Parameters
+        ----------
+        points : (n, 3) float
+            Query points.
+
+        Returns
+        -------
+        distance : (n,) float
+            Metres.
+        mesh : (n,) int
+            The nearest mesh.
+        """
         points = np.asarray(points, dtype=float).reshape(-1, 3)
         dist = np.full(len(points), np.inf)
         which = np.full(len(points), -1)
@@ -296,7 +394,20 @@ class ClearanceModel:
         return np.maximum(dist, 0.0), which
 
     def segment_distance(self, starts, ends) -> tuple[np.ndarray, np.ndarray]:
-        """Exact minimum distance from each segment to the meshes, and the nearest mesh."""
+        """Exact minimum distance from each segment to the meshes, and the nearest mesh.
+
+        Parameters
+        ----------
+        starts, ends : (n, 3) float
+            The segments' ends.
+
+        Returns
+        -------
+        distance : (n,) float
+            Metres.
+        mesh : (n,) int
+            The nearest mesh.
+        """
         starts = np.asarray(starts, dtype=float).reshape(-1, 3)
         ends = np.asarray(ends, dtype=float).reshape(-1, 3)
         dist = np.full(len(starts), np.inf)
@@ -310,6 +421,22 @@ class ClearanceModel:
 
         Exact (FCL) for every segment that might come closer than ``security`` or might hold
         the polyline's minimum; the others, provably farther, get their lower bound.
+
+        Parameters
+        ----------
+        points : (n, 3) float
+            The polyline.
+        security : float
+            The security distance, metres.
+
+        Returns
+        -------
+        clearance : (n - 1,) float
+            Metres.
+        mesh : (n - 1,) int
+            The nearest mesh.
+        exact : (n - 1,) bool
+            Whether the clearance is exact or a lower bound.
         """
         points = np.asarray(points, dtype=float).reshape(-1, 3)
         a, b = points[:-1], points[1:]
@@ -327,7 +454,22 @@ class ClearanceModel:
         return dist, which, exact
 
     def closest_point_on_segment(self, start, end, samples: int = 257) -> tuple[np.ndarray, float]:
-        """The point of a segment nearest to the meshes (dense sampling) and its distance."""
+        """The point of a segment nearest to the meshes (dense sampling) and its distance.
+
+        Parameters
+        ----------
+        start, end : (3,) float
+            The segment.
+        samples : int
+            Points tested along it.
+
+        Returns
+        -------
+        point : (3,) float
+            The nearest sampled point.
+        distance : float
+            Its distance, metres.
+        """
         t = np.linspace(0.0, 1.0, samples)[:, None]
         points = np.asarray(start, float) * (1 - t) + np.asarray(end, float) * t
         d, _ = self.point_distance(points)

@@ -22,6 +22,18 @@ WGS84 = "EPSG:4326"
 
 
 def has_georeference(frame: dict) -> bool:
+    """Whether a route's frame places it on the Earth (a CRS or a geodetic origin).
+
+    Parameters
+    ----------
+    frame : dict
+        The route file's ``frame``.
+
+    Returns
+    -------
+    bool
+        True with a georeference.
+    """
     return bool(frame.get("crs") or frame.get("geodetic_origin"))
 
 
@@ -31,7 +43,23 @@ def _transformer(src: str, dst: str) -> Transformer:
 
 
 def check_crs(text: str) -> str:
-    """A CRS string pyproj understands, or a ParameterError naming it."""
+    """A CRS string pyproj understands, or a ParameterError naming it.
+
+    Parameters
+    ----------
+    text : str
+        An EPSG code, WKT or PROJ string.
+
+    Returns
+    -------
+    str
+        ``text``.
+
+    Raises
+    ------
+    ParameterError
+        When pyproj does not know it.
+    """
     try:
         crs = CRS.from_user_input(text)
     except CRSError:
@@ -42,7 +70,20 @@ def check_crs(text: str) -> str:
 
 
 def to_lonlat(frame: dict, local) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Longitude, latitude (degrees) and height (m, in the frame's height system) of local points."""
+    """Longitude, latitude (degrees) and height (m, in the frame's height system) of local points.
+
+    Parameters
+    ----------
+    frame : dict
+        The route file's ``frame``.
+    local : (n, 3) float
+        Points in the local frame, metres.
+
+    Returns
+    -------
+    lon, lat, h : (n,) float
+        Degrees and metres.
+    """
     local = np.asarray(local, dtype=float).reshape(-1, 3)
     origin = np.asarray(frame.get("origin") or [0.0, 0.0, 0.0], dtype=float)
     if frame.get("crs"):
@@ -60,7 +101,22 @@ def to_lonlat(frame: dict, local) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 
 def from_lonlat(frame: dict, lon, lat, h) -> np.ndarray:
-    """Inverse of :func:`to_lonlat`: local coordinates of WGS84 points."""
+    """Inverse of :func:`to_lonlat`: local coordinates of WGS84 points.
+
+    Parameters
+    ----------
+    frame : dict
+        The route file's ``frame``.
+    lon, lat : (n,) float
+        WGS 84 degrees.
+    h : (n,) float
+        Heights in the frame's height system, metres.
+
+    Returns
+    -------
+    (n, 3) float
+        Local coordinates, metres.
+    """
     lon, lat, h = (np.asarray(a, dtype=float) for a in (lon, lat, h))
     origin = np.asarray(frame.get("origin") or [0.0, 0.0, 0.0], dtype=float)
     if frame.get("crs"):
@@ -93,7 +149,23 @@ def _ecef_to_enu(ecef, lat0, lon0, h0) -> np.ndarray:
 
 
 def checked_transformer(src: str, dst: str) -> Transformer:
-    """The most accurate transformation, or a ParameterError naming the PROJ grids it lacks."""
+    """The most accurate transformation, or a ParameterError naming the PROJ grids it lacks.
+
+    Parameters
+    ----------
+    src, dst : str
+        Source and destination CRS.
+
+    Returns
+    -------
+    pyproj.Transformer
+        The most accurate transformation available.
+
+    Raises
+    ------
+    ParameterError
+        When the best transformation needs PROJ grids that are not installed.
+    """
     import warnings
 
     from pyproj.transformer import TransformerGroup
@@ -111,7 +183,20 @@ def checked_transformer(src: str, dst: str) -> Transformer:
 
 def ellipsoidal_and_egm96(frame: dict, local) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Longitude, latitude, WGS84 ellipsoidal height and EGM96 height of local points; needs a
-    frame whose heights have a datum (a compound CRS or a vertical CRS) and PROJ's geoid grids."""
+    frame whose heights have a datum (a compound CRS or a vertical CRS) and PROJ's geoid grids.
+
+    Parameters
+    ----------
+    frame : dict
+        The route file's ``frame``.
+    local : (n, 3) float
+        Points in the local frame.
+
+    Returns
+    -------
+    lon, lat, h_ellipsoid, h_egm96 : (n,) float
+        Degrees and metres.
+    """
     crs = frame.get("crs")
     vertical = frame.get("vertical_crs")
     if not crs or not (vertical or CRS.from_user_input(crs).is_compound):
@@ -131,7 +216,20 @@ _GEOD = Geod(ellps="WGS84")
 
 
 def grid_convergence(frame: dict, local) -> np.ndarray:
-    """Azimuth (deg from true north) of the local +y axis at each point."""
+    """Azimuth (deg from true north) of the local +y axis at each point.
+
+    Parameters
+    ----------
+    frame : dict
+        The route file's ``frame``.
+    local : (n, 3) float
+        Points in the local frame.
+
+    Returns
+    -------
+    (n,) float
+        Degrees, clockwise from true north.
+    """
     local = np.asarray(local, dtype=float).reshape(-1, 3)
     lon0, lat0, _ = to_lonlat(frame, local)
     lon1, lat1, _ = to_lonlat(frame, local + [0.0, 1.0, 0.0])

@@ -26,7 +26,17 @@ _F32 = np.float32
 
 
 class RayCaster:
-    """First hits, segment occlusion and inside tests against a list of meshes."""
+    """First hits, segment occlusion and inside tests against a list of meshes.
+
+    Parameters
+    ----------
+    meshes : sequence of trimesh.Trimesh
+        Closed meshes.
+    epsilon : float
+        Metres cut from each segment's end, so a segment ending on a surface is not blocked by it.
+    sheets : sequence of trimesh.Trimesh
+        Open surfaces that block rays (the terrain).
+    """
 
     def __init__(self, meshes, epsilon: float = 1e-4, sheets=()):
         """``sheets`` (the terrain) block rays and report hits with indices after the meshes',
@@ -42,7 +52,22 @@ class RayCaster:
             self._keep.append(tm)
 
     def first_hit(self, origins, directions, max_distance=None):
-        """Distance, mesh index and face index of the first hit per ray (-1 / inf if none)."""
+        """Distance, mesh index and face index of the first hit per ray (-1 / inf if none).
+
+        Parameters
+        ----------
+        origins, directions : (n, 3) float
+            Rays; directions need not be unit.
+        max_distance : float or (n,) float, optional
+            Farthest hit counted.
+
+        Returns
+        -------
+        distance : (n,) float
+            Metres along the ray.
+        mesh, face : (n,) int
+            Indices of what was hit.
+        """
         origins = np.ascontiguousarray(origins, dtype=_F32).reshape(-1, 3)
         directions = np.asarray(directions, dtype=float).reshape(-1, 3)
         directions = np.ascontiguousarray(
@@ -59,7 +84,20 @@ class RayCaster:
         return dist, geom, out["primID"].astype(np.int64)
 
     def segments_blocked(self, starts, ends, chunk: int = 2_000_000) -> np.ndarray:
-        """True where the open segment start->end hits any mesh (its end excluded by epsilon)."""
+        """True where the open segment start->end hits any mesh (its end excluded by epsilon).
+
+        Parameters
+        ----------
+        starts, ends : (n, 3) float
+            The segments.
+        chunk : int
+            Segments per Embree call.
+
+        Returns
+        -------
+        (n,) bool
+            Blocked segments.
+        """
         starts = np.asarray(starts, dtype=float).reshape(-1, 3)
         ends = np.asarray(ends, dtype=float).reshape(-1, 3)
         result = np.empty(len(starts), dtype=bool)
@@ -75,7 +113,22 @@ class RayCaster:
         return result
 
     def crossings(self, points, direction, max_hits: int = 256) -> np.ndarray:
-        """Per point and mesh, how many surfaces a ray from the point crosses: (n, n_meshes)."""
+        """Per point and mesh, how many surfaces a ray from the point crosses: (n, n_meshes).
+
+        Parameters
+        ----------
+        points : (n, 3) float
+            Ray origins.
+        direction : (3,) float
+            The rays' direction.
+        max_hits : int
+            The most surfaces followed per ray.
+
+        Returns
+        -------
+        (n, n_meshes) int
+            Crossing counts.
+        """
         points = np.asarray(points, dtype=float).reshape(-1, 3)
         counts = np.zeros((len(points), max(self.n_meshes, 1)), dtype=np.int32)
         origins = points.copy()
@@ -93,7 +146,18 @@ class RayCaster:
         return counts
 
     def inside_each(self, points) -> np.ndarray:
-        """(n, n_meshes) bool: inside each mesh by the majority of three parity rays."""
+        """(n, n_meshes) bool: inside each mesh by the majority of three parity rays.
+
+        Parameters
+        ----------
+        points : (n, 3) float
+            Query points.
+
+        Returns
+        -------
+        (n, n_meshes) bool
+            Inside each mesh.
+        """
         points = np.asarray(points, dtype=float).reshape(-1, 3)
         votes = np.zeros((len(points), max(self.n_meshes, 1)), dtype=np.int32)
         if self.n_meshes == 0 or len(points) == 0:
@@ -107,7 +171,18 @@ class RayCaster:
         return votes >= 2
 
     def inside(self, points) -> np.ndarray:
-        """Index of a mesh each point lies inside, else -1."""
+        """Index of a mesh each point lies inside, else -1.
+
+        Parameters
+        ----------
+        points : (n, 3) float
+            Query points.
+
+        Returns
+        -------
+        (n,) int
+            A mesh index or -1.
+        """
         inside = self.inside_each(points)
         if inside.shape[1] == 0:
             return np.full(len(inside), -1, dtype=np.int64)

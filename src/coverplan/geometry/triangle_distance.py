@@ -26,7 +26,18 @@ def _dot(u, v):
 
 
 def point_segment_distance(p, a, b) -> np.ndarray:
-    """Distance from each point ``p`` to the segment ``a``-``b`` (rows pair up)."""
+    """Distance from each point ``p`` to the segment ``a``-``b`` (rows pair up).
+
+    Parameters
+    ----------
+    p, a, b : (n, 3) float
+        Points and segment ends.
+
+    Returns
+    -------
+    (n,) float
+        Distances.
+    """
     d = b - a
     dd = _dot(d, d)
     t = np.clip(_dot(p - a, d) / np.maximum(dd, _TINY), 0.0, 1.0)
@@ -34,7 +45,18 @@ def point_segment_distance(p, a, b) -> np.ndarray:
 
 
 def point_triangle_distance(p, a, b, c) -> np.ndarray:
-    """Distance from each point to the triangle ``a, b, c`` (degenerate ones: their edges)."""
+    """Distance from each point to the triangle ``a, b, c`` (degenerate ones: their edges).
+
+    Parameters
+    ----------
+    p, a, b, c : (n, 3) float
+        Points and triangle corners.
+
+    Returns
+    -------
+    (n,) float
+        Distances.
+    """
     n = np.cross(b - a, c - a)
     nn = _dot(n, n)
     inside = ((nn > _TINY) & (_dot(np.cross(b - a, p - a), n) >= 0) & (_dot(np.cross(c - b, p - b), n) >= 0)
@@ -49,7 +71,18 @@ def segment_segment_distance(p1, q1, p2, q2) -> np.ndarray:
     """Least distance between segments ``p1``-``q1`` and ``p2``-``q2`` (either may be a point).
 
     The closest parameters of the two lines, clamped to the segments as in Ericson's
-    Real-Time Collision Detection (5.1.9), parallel segments taking s = 0."""
+    Real-Time Collision Detection (5.1.9), parallel segments taking s = 0.
+
+    Parameters
+    ----------
+    p1, q1, p2, q2 : (n, 3) float
+        The two segments' ends.
+
+    Returns
+    -------
+    (n,) float
+        Distances.
+    """
     d1, d2, r = q1 - p1, q2 - p2, p1 - p2
     a, e = _dot(d1, d1), _dot(d2, d2)
     b, c, f = _dot(d1, d2), _dot(d1, r), _dot(d2, r)
@@ -69,7 +102,20 @@ def segment_segment_distance(p1, q1, p2, q2) -> np.ndarray:
 
 def segment_crosses_triangle(p, q, a, b, c) -> np.ndarray:
     """Whether each segment ``p``-``q`` passes through the triangle (Moeller-Trumbore); segments
-    in the triangle's plane count as not crossing (their edge distances settle them)."""
+    in the triangle's plane count as not crossing (their edge distances settle them).
+
+    Parameters
+    ----------
+    p, q : (n, 3) float
+        Segment ends.
+    a, b, c : (n, 3) float
+        Triangle corners.
+
+    Returns
+    -------
+    (n,) bool
+        Crossing segments.
+    """
     d, e1, e2 = q - p, b - a, c - a
     h = np.cross(d, e2)
     det = _dot(e1, h)
@@ -84,7 +130,20 @@ def segment_crosses_triangle(p, q, a, b, c) -> np.ndarray:
 
 
 def segment_triangle_distance(p, q, a, b, c) -> np.ndarray:
-    """Least distance from each segment ``p``-``q`` to the triangle ``a, b, c``."""
+    """Least distance from each segment ``p``-``q`` to the triangle ``a, b, c``.
+
+    Parameters
+    ----------
+    p, q : (n, 3) float
+        Segment ends.
+    a, b, c : (n, 3) float
+        Triangle corners.
+
+    Returns
+    -------
+    (n,) float
+        Distances.
+    """
     d = np.minimum.reduce([point_triangle_distance(p, a, b, c), point_triangle_distance(q, a, b, c),
                            segment_segment_distance(p, q, a, b), segment_segment_distance(p, q, b, c),
                            segment_segment_distance(p, q, c, a)])
@@ -115,8 +174,25 @@ def _pairs_near(starts, ends, points: bool, triangles, normal, flat, i, j, radiu
 
 
 def segments_near_triangles(starts, ends, triangles, radius: float, max_pairs: int = 2_000_000) -> np.ndarray:
-    """Per segment (``starts`` == ``ends`` for points): does some triangle (``(m, 3, 3)``) come
-    closer than ``radius``?"""
+    """Per segment (``starts`` == ``ends`` for points), whether some triangle comes closer than
+    ``radius``.
+
+    Parameters
+    ----------
+    starts, ends : (n, 3) float
+        The segments.
+    triangles : (m, 3, 3) float
+        Triangle corners.
+    radius : float
+        Metres.
+    max_pairs : int
+        Segment-triangle pairs tested per batch.
+
+    Returns
+    -------
+    (n,) bool
+        Segments within ``radius`` of a triangle.
+    """
     starts = np.asarray(starts, dtype=float).reshape(-1, 3)
     ends = np.asarray(ends, dtype=float).reshape(-1, 3)
     triangles = np.asarray(triangles, dtype=float).reshape(-1, 3, 3)
@@ -141,7 +217,13 @@ class NearTriangles:
     """``segments_near_triangles`` for thousands of triangles: a segment is tested only against
     the triangles whose bounding balls come within reach of its own (a KD-tree of their
     centres). Triangles much bigger than most (a long wall among a scan's small ones) would
-    make every reach big, so they are tested against every segment, box test first."""
+    make every reach big, so they are tested against every segment, box test first.
+
+    Parameters
+    ----------
+    triangles : (m, 3, 3) float
+        Triangle corners.
+    """
 
     def __init__(self, triangles):
         self.triangles = np.asarray(triangles, dtype=float).reshape(-1, 3, 3)

@@ -37,7 +37,37 @@ from coverplan.shots.visibility import imaging_pairs
 def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps: ClosedGaps, flight: Flight,
                stage_seconds: dict, planning_time_s: float) -> Route:
     """The Route: waypoints, the settings as asked, notes and the plan's metrics; checked once
-    more for safety before it is handed out."""
+    more for safety before it is handed out.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene planned.
+    setup : Setup
+        The resolved settings.
+    problem : Problem
+        The samples and candidates.
+    selection : Selection
+        The shots chosen on the planner's samples.
+    gaps : ClosedGaps
+        The shots after the fine check.
+    flight : Flight
+        The tour and its battery flights.
+    stage_seconds : dict
+        Seconds per stage, recorded in the metrics.
+    planning_time_s : float
+        The plan's wall time.
+
+    Returns
+    -------
+    Route
+        The planned route.
+
+    Raises
+    ------
+    RuntimeError
+        When the assembled route comes closer than the security distance to the scene (a bug).
+    """
     settings, limits = setup.asked, setup.limits
     route = _route(flight.flights, flight.shots, setup.asked_camera, scene, limits, settings, setup.spacing,
                    _witnessed(flight.uncovered, flight.shots, setup, scene))

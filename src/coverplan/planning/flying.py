@@ -37,7 +37,31 @@ from coverplan.shots.lane_selection import ring_pairs
 @dataclass(frozen=True)
 class Flight:
     """The tour flown: waypoints per battery flight, the shots they photograph from, and what
-    stays uncovered (shots no safe path reaches dropped)."""
+    stays uncovered (shots no safe path reaches dropped).
+
+    Parameters
+    ----------
+    flights : list
+        Waypoints and shot flags of each battery flight.
+    shots : Candidates
+        The poses photographed from.
+    chosen : (k,) int
+        The chosen candidates the flight reaches.
+    check : object
+        The fine check of the shots flown.
+    uncovered : list
+        What stays uncovered, with the reason.
+    lattice_spacing_m : float
+        The flight graph's lattice spacing.
+    single_flight_s : float
+        The tour's time as one flight.
+    single_flight_path_m : float
+        The tour's length as one flight.
+    reversal_m : float
+        The tour's cost of a reversal, in metres of path.
+    reaim_m : float
+        The tour's cost of a step that turns the camera.
+    """
 
     flights: list  # per battery flight: [(position (3,), special index or -1), ...]
     shots: Candidates
@@ -54,7 +78,28 @@ class Flight:
 def fly(scene, problem: Problem, gaps: ClosedGaps, setup: Setup, progress: Progress,
         pool: Executor | None = None) -> Flight:
     """Flight graph (lattice + Dijkstra), tour, legs and the battery split; ``pool`` shares
-    the Dijkstra searches."""
+    the Dijkstra searches.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene flown.
+    problem : Problem
+        The candidates and the lattice started for them.
+    gaps : ClosedGaps
+        The shots to fly to.
+    setup : Setup
+        The resolved settings.
+    progress : Progress
+        Reports the searches.
+    pool : Executor, optional
+        Runs the Dijkstra searches beside this thread.
+
+    Returns
+    -------
+    Flight
+        The tour, its legs and flights.
+    """
     limits, settings, extra = setup.limits, setup.asked, setup.extra_clearance
     closer, chosen, check = gaps.closer, gaps.chosen, gaps.check
     cands = gaps.cover.cands

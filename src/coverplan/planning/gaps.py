@@ -35,6 +35,29 @@ class ClosedGaps:
     """The shots after the fine check: repaired, sharpened, thinned and relinked.
 
     ``cover`` is the problem grown by the repair's candidates and the check samples.
+
+    Parameters
+    ----------
+    cover : CoverProblem
+        The cover problem grown by the repair.
+    chosen : (k,) int
+        The chosen candidates.
+    check : object
+        The fine check of ``chosen``.
+    closer : GapCloser
+        The repair that grew ``cover``.
+    history : list of float
+        Coverage in percent after each repair round.
+    fine_sharp : int
+        Shots added for sharp views on the check samples.
+    complete : int
+        Shots before the redundant ones were dropped.
+    dropped : int
+        Redundant shots dropped.
+    check_links : int
+        Shots added to link what the check samples ask.
+    trimmed : int
+        Shots trimmed at the end.
     """
 
     cover: CoverProblem
@@ -51,7 +74,24 @@ class ClosedGaps:
 
 def close_gaps(problem: Problem, selection: Selection, setup: Setup, progress: Progress) -> ClosedGaps:
     """Judge the shots on the check samples; add shots where they fall short, drop the
-    redundant ones, link what the check's samples ask."""
+    redundant ones, link what the check's samples ask.
+
+    Parameters
+    ----------
+    problem : Problem
+        The samples and candidates.
+    selection : Selection
+        The shots chosen on the planner's samples.
+    setup : Setup
+        The resolved settings.
+    progress : Progress
+        Reports the repair rounds.
+
+    Returns
+    -------
+    ClosedGaps
+        The shots after the check.
+    """
     settings, match, d_opt = setup.asked, setup.match, setup.d_opt
     samples, coarse = problem.samples, len(problem.samples)
     cover = replace(problem.cover)  # the repair grows its own copy of the problem

@@ -21,13 +21,33 @@ FORCE = "pass --force if it is meant"
 
 
 def target_size(scene) -> float:
-    """The target's largest extent, m."""
+    """The target's largest extent, m.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+
+    Returns
+    -------
+    float
+        Metres.
+    """
     lo, hi = scene.bounds("target")
     return float(np.max(np.asarray(hi) - np.asarray(lo)))
 
 
 def check_unit_slips(scene, settings, d_opt: float) -> None:
     """Refuse settings that look like a unit slip (``settings.force``: plan them all the same).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    settings : PlanSettings
+        The settings asked.
+    d_opt : float
+        The camera distance of the GSD asked, metres.
 
     Raises
     ------
@@ -56,7 +76,22 @@ def check_unit_slips(scene, settings, d_opt: float) -> None:
 def check_endurance(minutes: float, settings, max_flight_min: float | None) -> None:
     """Refuse a single flight longer than ``BATTERIES`` of the longest any drone profile flies on
     one when nothing splits it (no drone, no ``max_flight_min``): the GSD or security distance is
-    likely a slip."""
+    likely a slip.
+
+    Parameters
+    ----------
+    minutes : float
+        The tour's time as one flight.
+    settings : PlanSettings
+        The settings asked (``force`` plans it anyway).
+    max_flight_min : float or None
+        The longest flight asked for.
+
+    Raises
+    ------
+    ParameterError
+        Naming the minutes and the settings that likely caused them.
+    """
     if settings.force or max_flight_min is not None:
         return
     longest = max(DRONES.values(), key=lambda d: d.usable_flight_min)

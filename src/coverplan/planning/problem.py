@@ -52,6 +52,33 @@ class Problem:
 
     The futures are work started on the other core for later stages: the check samples, the
     candidates' link graph and the flight graph's lattice (None when it depends on the shots).
+
+    Parameters
+    ----------
+    samples : SurfaceSamples
+        The planner's samples of the target surface.
+    reach : Reachability
+        Where each sample can be seen from.
+    cover : CoverProblem
+        The candidates and their visibility.
+    vis : scipy.sparse.csr_matrix
+        Candidates by samples: which candidate sees which sample.
+    rays : (m, 3) float
+        The unit view ray of each visible pair.
+    fine_job : Future
+        The check samples, made on the other core.
+    links_job : Future or None
+        The candidates' link graph.
+    lattice_job : Future or None
+        The flight graph's lattice.
+    fixed : (f,) int
+        Candidates that are photos already taken.
+    required : (r,) int
+        Candidates every plan keeps (the edge views).
+    fill : (c, p) float
+        ``frame_fill`` of the candidates when framed views are asked, else no columns.
+    lanes : Lanes
+        The candidate lanes.
     """
 
     samples: SurfaceSamples
@@ -68,7 +95,18 @@ class Problem:
     lanes: Lanes  # the lane photos: the first len(lanes) candidates (settings.selection "lanes")
 
     def lane_of(self, n: int) -> np.ndarray:
-        """(n,) int: the lane of each of the first ``n`` candidates, -1 for those not in a lane."""
+        """(n,) int: the lane of each of the first ``n`` candidates, -1 for those not in a lane.
+
+        Parameters
+        ----------
+        n : int
+            How many candidates.
+
+        Returns
+        -------
+        (n,) int
+            The lane index, -1 outside a lane.
+        """
         out = np.full(n, -1, dtype=np.int64)
         out[:len(self.lanes)] = self.lanes.lane
         return out
@@ -80,7 +118,24 @@ class Problem:
 
 
 def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Problem:
-    """Surface samples, reachability, candidate viewpoints and the visibility matrix."""
+    """Surface samples, reachability, candidate viewpoints and the visibility matrix.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene planned.
+    setup : Setup
+        The resolved settings.
+    progress : Progress
+        Reports the stages.
+    pool : Executor
+        Runs the check samples, the link graph and the lattice beside this thread.
+
+    Returns
+    -------
+    Problem
+        The samples, candidates and visibility.
+    """
     settings, limits, camera = setup.asked, setup.limits, setup.camera
     classes = settings.surface_classes
     # The check samples depend on the target alone: drawn on another core meanwhile (Embree
@@ -176,7 +231,22 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
 
 def fill_of(scene, cands: Candidates, setup: Setup) -> np.ndarray:
     """``frame_fill`` of candidates, framed by the camera asked for (not the one narrowed by the
-    pose margin: exposure and features come from the whole frame)."""
+    pose margin: exposure and features come from the whole frame).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    cands : Candidates
+        The candidate poses.
+    setup : Setup
+        Gives the camera asked for.
+
+    Returns
+    -------
+    (n, p) float
+        The share of each frame region the scene fills.
+    """
     return frame_fill(scene, cands.positions, cands.heading_deg, cands.pitch_deg, setup.asked_camera)
 
 

@@ -23,7 +23,27 @@ from coverplan.shots.sharpness import add_sharp_views, add_wanted_views, inciden
 
 @dataclass(frozen=True)
 class Selection:
-    """The shots chosen on the planner's samples and how many each step added."""
+    """The shots chosen on the planner's samples and how many each step added.
+
+    Parameters
+    ----------
+    chosen : (k,) int
+        The chosen candidates.
+    covering : int
+        Shots chosen by the covering LP.
+    sharpening : int
+        Shots added for sharp views.
+    framing : int
+        Shots added for framed views.
+    lp_bound : float or None
+        The LP's lower bound of the shot count.
+    lp_stopped : bool
+        True when the LP stopped at its time limit.
+    lane_rows : (l,) int
+        Candidates chosen as lanes.
+    required : (r,) int
+        Candidates every plan keeps.
+    """
 
     chosen: np.ndarray  # (k,) int candidate indices
     covering: int
@@ -36,12 +56,38 @@ class Selection:
 
     def keep(self, problem: Problem) -> np.ndarray:
         """(k,) candidate indices no later stage drops: the photos already taken, the edge views
-        and the lanes."""
+        and the lanes.
+
+        Parameters
+        ----------
+        problem : Problem
+            Gives the photos already taken.
+
+        Returns
+        -------
+        (k,) int
+            Sorted candidate indices.
+        """
         return np.union1d(np.union1d(problem.fixed, self.required), self.lane_rows)
 
 
 def select_shots(problem: Problem, setup: Setup, progress: Progress) -> Selection:
-    """View selection (covering LP), then sharp views and links for SfM."""
+    """View selection (covering LP), then sharp views and links for SfM.
+
+    Parameters
+    ----------
+    problem : Problem
+        The samples and candidates.
+    setup : Setup
+        The resolved settings.
+    progress : Progress
+        Reports the stages.
+
+    Returns
+    -------
+    Selection
+        The chosen shots.
+    """
     settings, match = setup.asked, setup.match
     cam, pt, _ = problem.cover.pairs
     samples, cands = problem.samples, problem.cover.cands
@@ -94,5 +140,16 @@ def lean(match: MatchRule | None) -> bool:
     the chains already added (``connect_shots``), and a final trim (``gaps._trim``). Only under the
     "samples" link test: under "centroid" the same rules met with fewer photos split the gabled
     house's model in two field draws of three (its links across corners are not COLMAP's), so
-    those plans keep the slack the classic selection leaves (docs/reconstruction.md)."""
+    those plans keep the slack the classic selection leaves (docs/reconstruction.md).
+
+    Parameters
+    ----------
+    match : MatchRule or None
+        The matching rule; None plans without one.
+
+    Returns
+    -------
+    bool
+        True for a lean plan.
+    """
     return match is not None and match.lean

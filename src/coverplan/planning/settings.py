@@ -249,12 +249,41 @@ class PlanSettings:
 
 
 def safety_margin(security: float) -> float:
-    """Extra clearance the planner keeps beyond the security distance."""
+    """Extra clearance the planner keeps beyond the security distance.
+
+    Parameters
+    ----------
+    security : float
+        The security distance, metres.
+
+    Returns
+    -------
+    float
+        Metres.
+    """
     return max(0.05, 0.02 * security)
 
 
 def optimal_distance(camera: Camera, settings: PlanSettings) -> float:
-    """``d_opt`` of the GSD asked, refused when it lies inside the security distance."""
+    """``d_opt`` of the GSD asked, refused when it lies inside the security distance.
+
+    Parameters
+    ----------
+    camera : Camera
+        The camera flown.
+    settings : PlanSettings
+        Gives the GSD and the security distance.
+
+    Returns
+    -------
+    float
+        ``d_opt`` in metres.
+
+    Raises
+    ------
+    ParameterError
+        When ``d_opt`` is not beyond the security distance.
+    """
     d_opt = camera.optimal_distance(settings.gsd)
     need = settings.security + safety_margin(settings.security)
     if d_opt <= need * 1.05:
@@ -267,7 +296,20 @@ def optimal_distance(camera: Camera, settings: PlanSettings) -> float:
 
 
 def gimbal_range(given, drone) -> tuple[float, float]:
-    """The gimbal pitch range to plan with: the one given, else the drone's, else -90..30."""
+    """The gimbal pitch range to plan with: the one given, else the drone's, else -90..30.
+
+    Parameters
+    ----------
+    given : (float, float) or None
+        Lowest and highest pitch asked, degrees.
+    drone : DroneProfile or None
+        The drone flown.
+
+    Returns
+    -------
+    lo, hi : float
+        Degrees.
+    """
     rng = given if given is not None else (drone.gimbal_pitch_deg if drone is not None else (-90.0, 30.0))
     lo, hi = (float(v) for v in rng)
     if not -90.0 <= lo <= hi <= 90.0:
@@ -289,7 +331,13 @@ BYTES_PER_CANDIDATE = 400
 
 
 def physical_memory() -> float:
-    """Bytes of RAM on this machine (sysconf), or 8 GB where it cannot be read."""
+    """Bytes of RAM on this machine (sysconf), or 8 GB where it cannot be read.
+
+    Returns
+    -------
+    float
+        Bytes.
+    """
     try:
         return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
     except (ValueError, OSError, AttributeError):
@@ -297,7 +345,24 @@ def physical_memory() -> float:
 
 
 def memory_estimate(scene, camera: Camera, spacing: float, distance: float) -> dict:
-    """Rough peak memory of a plan, from triangles, samples and expected visibility pairs."""
+    """Rough peak memory of a plan, from triangles, samples and expected visibility pairs.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    camera : Camera
+        The camera flown.
+    spacing : float
+        The samples' spacing, metres.
+    distance : float
+        The camera distance, metres.
+
+    Returns
+    -------
+    dict
+        ``bytes`` and the counts it comes from (triangles, samples, candidates, pairs).
+    """
     triangles = sum(len(p.mesh.faces) for p in scene.parts)
     area = sum(p.mesh.area for p in scene.targets)
     samples = area / spacing ** 2
@@ -311,7 +376,31 @@ def memory_estimate(scene, camera: Camera, spacing: float, distance: float) -> d
 
 
 def check_size(scene, camera: Camera, spacing: float, distance: float, max_memory: float | None) -> dict:
-    """Refuse, before any heavy work, a plan that would not fit in memory."""
+    """Refuse, before any heavy work, a plan that would not fit in memory.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    camera : Camera
+        The camera flown.
+    spacing : float
+        The samples' spacing, metres.
+    distance : float
+        The camera distance, metres.
+    max_memory : float or None
+        The bytes a plan may use; None allows most of this machine's memory.
+
+    Returns
+    -------
+    dict
+        ``memory_estimate``'s result.
+
+    Raises
+    ------
+    ParameterError
+        When the estimate exceeds the memory allowed.
+    """
     limit = 0.8 * physical_memory() if max_memory is None else float(max_memory)
     est = memory_estimate(scene, camera, spacing, distance)
     if est["bytes"] > limit:

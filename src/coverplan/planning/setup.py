@@ -43,6 +43,41 @@ class Setup:
 
     ``camera``, ``match`` and ``min_triangulation_deg`` are the ones the rules are judged with
     (narrowed by the pose margin); ``asked`` keeps the settings as given for the route.
+
+    Parameters
+    ----------
+    asked : PlanSettings
+        The settings as given.
+    asked_camera : Camera
+        The camera as given.
+    camera : Camera
+        The camera narrowed by the pose margin.
+    limits : ViewLimits
+        The viewpoint rules.
+    pose : PoseMargin
+        The drone's position, heading and gimbal error the rules are judged with.
+    match : MatchRule or None
+        The matching rule.
+    min_triangulation_deg : float
+        The least angle between two rays of a triangulating pair.
+    d_opt : float
+        The camera distance of the GSD asked, metres.
+    extra_clearance : float
+        Clearance kept beyond the security distance, metres.
+    spacing : float
+        The planner's sample spacing, metres.
+    standoff : float
+        The distance candidates are placed at, metres.
+    start : (3,) float
+        The take-off point.
+    flight_model : FlightModel
+        The flight-time model.
+    max_flight_min : float or None
+        The longest battery flight.
+    drone : DroneProfile or None
+        The drone flown.
+    notes : tuple of str
+        Notes for the route.
     """
 
     asked: PlanSettings
@@ -64,12 +99,34 @@ class Setup:
 
     @property
     def max_pair_deg(self) -> float | None:
+        """The largest angle between the rays of a matching pair, or None without a matching rule."""
         return self.match.max_pair_deg if self.match else None
 
 
 def resolve(scene, camera: Camera, settings: PlanSettings, drone: DroneProfile | None = None,
             flight_model: FlightModel | None = None, start=None) -> Setup:
-    """Check the settings against the camera and scene; the pose margin, limits and start point."""
+    """Check the settings against the camera and scene; the pose margin, limits and start point.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene planned.
+    camera : Camera
+        The camera flown.
+    settings : PlanSettings
+        The settings asked.
+    drone : DroneProfile, optional
+        The drone flown.
+    flight_model : FlightModel, optional
+        The flight-time model; the drone's, else a default.
+    start : (3,) float, optional
+        The take-off point; picked when None.
+
+    Returns
+    -------
+    Setup
+        The resolved settings.
+    """
     d_opt = optimal_distance(camera, settings)
     check_unit_slips(scene, settings, d_opt)
     pitch_range = gimbal_range(settings.gimbal_pitch_range_deg, drone)
@@ -108,14 +165,41 @@ def resolve(scene, camera: Camera, settings: PlanSettings, drone: DroneProfile |
 
 def zone_margin(settings: PlanSettings, drone: DroneProfile | None) -> float:
     """The margin the flight keeps from the zones, m: the one asked, else the drone's
-    horizontal position accuracy (a GNSS drone's without a profile)."""
+    horizontal position accuracy (a GNSS drone's without a profile).
+
+    Parameters
+    ----------
+    settings : PlanSettings
+        The settings asked.
+    drone : DroneProfile or None
+        The drone flown.
+
+    Returns
+    -------
+    float
+        Metres.
+    """
     if settings.zone_margin is not None:
         return float(settings.zone_margin)
     return float((drone.position if drone is not None else TYPICAL_GNSS).horizontal_m)
 
 
 def check_zones(scene, limits: ViewLimits) -> None:
-    """Refuse zones that leave no airspace to photograph the target from."""
+    """Refuse zones that leave no airspace to photograph the target from.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene with its zones.
+    limits : ViewLimits
+        The viewpoint rules.
+
+    Raises
+    ------
+    ParameterError
+        A zone narrower than twice the zone margin, or zones that cover the whole target or
+        leave no airspace within d_opt of it.
+    """
     if not limits.zones:
         return
     for zone in limits.zones.keep_in:
@@ -138,7 +222,22 @@ def check_zones(scene, limits: ViewLimits) -> None:
 
 def plan_lattice_spacing(scene, shots: np.ndarray, setup: Setup) -> float:
     """The flight graph's lattice spacing: the one asked, or one that keeps the lattice over the
-    target and its shots within MAX_LATTICE_NODES."""
+    target and its shots within MAX_LATTICE_NODES.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    shots : (k, 3) float
+        The shot positions.
+    setup : Setup
+        The resolved settings.
+
+    Returns
+    -------
+    float
+        Metres.
+    """
     security = setup.asked.security
     region = np.ptp(np.vstack([scene.bounds("target"), shots]), axis=0) + 2 * (setup.d_opt + security)
     return setup.asked.lattice_spacing_m or lattice_spacing(setup.d_opt, security, float(np.prod(region)),

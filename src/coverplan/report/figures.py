@@ -67,6 +67,22 @@ def _path(ax, route, axes: tuple[int, int], mask=None):
 
 
 def overview(route, scene, path) -> Path:
+    """Draw the scene, its zones, the flight path and the photos from above and from the south.
+
+    Parameters
+    ----------
+    route : Route
+        The route drawn.
+    scene : Scene
+        Its scene.
+    path : str or Path
+        The PNG file.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     fig, (top, side) = plt.subplots(1, 2, figsize=(13, 5.8), gridspec_kw={"width_ratios": [1, 1.3]})
     lo, hi = focus_bounds(route, scene)
     for ax, axes, title, labels in ((top, (0, 1), "top view", ("x (east) m", "y (north) m")),
@@ -99,7 +115,24 @@ def overview(route, scene, path) -> Path:
 
 
 def slices(route, scene, path, max_levels: int = 6) -> Path:
-    """Horizontal slices at the heights shots cluster at, as in the thesis's Figures 4.2-4.4."""
+    """Horizontal slices at the heights shots cluster at, as in the thesis's Figures 4.2-4.4.
+
+    Parameters
+    ----------
+    route : Route
+        The route drawn.
+    scene : Scene
+        Its scene, cut at each level.
+    path : str or Path
+        The PNG file.
+    max_levels : int
+        The most slices drawn.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     shots = route.shots
     z = route.positions[shots, 2]
     band = max(route.camera.footprint(route.d_opt * 0.7)[1] * 0.5, 1e-3)
@@ -139,6 +172,20 @@ def slices(route, scene, path, max_levels: int = 6) -> Path:
 
 
 def coverage_histogram(evaluation, path) -> Path:
+    """Draw how many photos see each sample of the surface.
+
+    Parameters
+    ----------
+    evaluation : Evaluation
+        The evaluator's verdict.
+    path : str or Path
+        The PNG file.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     m = evaluation.metrics
     reach = evaluation.reachable
     views = evaluation.views[reach]
@@ -164,7 +211,26 @@ def coverage_histogram(evaluation, path) -> Path:
 
 def reconstruction(route, points, recovered, simulation, path) -> Path:
     """What SfM recovered: surface points green (a 3D point within 0.2 m) or red, and the
-    photos registered (black) or lost (red), seen from two sides."""
+    photos registered (black) or lost (red), seen from two sides.
+
+    Parameters
+    ----------
+    route : Route
+        The route flown.
+    points : (n, 3) float
+        Samples of the target surface.
+    recovered : (n,) bool
+        Which samples have a 3D point within 0.2 m.
+    simulation : Simulation
+        Gives which photos were registered.
+    path : str or Path
+        The PNG file.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     fig = plt.figure(figsize=(13, 6))
     shots = route.positions[route.shots]
     reg = simulation.shot_registered.astype(bool)
@@ -192,7 +258,26 @@ def reconstruction(route, points, recovered, simulation, path) -> Path:
 
 def write_figures(route, scene, prefix, evaluation=None, simulation=None) -> list[Path]:
     """Write ``PREFIX_overview.png``, ``PREFIX_slices.png`` and ``PREFIX_coverage.png``, and
-    with a simulation ``PREFIX_reconstruction.png``."""
+    with a simulation ``PREFIX_reconstruction.png``.
+
+    Parameters
+    ----------
+    route : Route
+        The route drawn.
+    scene : Scene
+        Its scene.
+    prefix : str or Path
+        The start of each file's path.
+    evaluation : Evaluation, optional
+        Evaluated here when None.
+    simulation : Simulation, optional
+        Adds the reconstruction figure.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
     if evaluation is None:
         evaluation = evaluate(route, scene)
     prefix = str(prefix)

@@ -10,7 +10,20 @@ MAX_DISPLAY_FACES = 300_000
 
 def focus_bounds(route, scene) -> tuple[np.ndarray, np.ndarray]:
     """Box around the target and every waypoint, padded by the security distance plus a few
-    metres; obstacles beyond it are cut off by the picture's edge."""
+    metres; obstacles beyond it are cut off by the picture's edge.
+
+    Parameters
+    ----------
+    route : Route
+        The route drawn.
+    scene : Scene
+        Its scene.
+
+    Returns
+    -------
+    lo, hi : (3,) float
+        The box's corners in the local frame.
+    """
     lo, hi = scene.bounds("target")
     lo = np.minimum(lo, route.positions.min(axis=0))
     hi = np.maximum(hi, route.positions.max(axis=0))
@@ -21,7 +34,20 @@ def focus_bounds(route, scene) -> tuple[np.ndarray, np.ndarray]:
 
 
 def display_mesh(mesh, max_faces: int = MAX_DISPLAY_FACES):
-    """Vertices and faces for display; very large meshes are thinned by vertex clustering."""
+    """Vertices and faces for display; very large meshes are thinned by vertex clustering.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        The mesh to draw.
+    max_faces : int
+        Meshes with more faces are thinned.
+
+    Returns
+    -------
+    vertices : (n, 3) float
+    faces : (m, 3) int
+    """
     vertices, faces = np.asarray(mesh.vertices), np.asarray(mesh.faces)
     if len(faces) <= max_faces:
         return vertices, faces

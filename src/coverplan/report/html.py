@@ -36,7 +36,24 @@ def _asset(name: str) -> str:
 
 
 def report_data(route, scene, evaluation, simulation=None) -> dict:
-    """Everything the viewer draws, as JSON-ready values."""
+    """Everything the viewer draws, as JSON-ready values.
+
+    Parameters
+    ----------
+    route : Route
+        The route drawn.
+    scene : Scene
+        Its scene.
+    evaluation : Evaluation
+        The evaluator's verdict.
+    simulation : Simulation, optional
+        Adds what SfM recovered.
+
+    Returns
+    -------
+    dict
+        Meshes, path, photos, zones and coverage for the viewer.
+    """
     samples = evaluation.samples
     cam, pt, rng = evaluation.pairs
     best = np.full(len(samples), np.inf)
@@ -84,7 +101,20 @@ def report_data(route, scene, evaluation, simulation=None) -> dict:
 
 def zone_prism(zone, low: float, high: float) -> tuple[np.ndarray, np.ndarray]:
     """Vertices (n, 3) and faces (m, 3) of a zone's prism, its open floor or ceiling cut at
-    ``low`` / ``high`` (the picture's frame)."""
+    ``low`` / ``high`` (the picture's frame).
+
+    Parameters
+    ----------
+    zone : Zone
+        A keep-out or keep-in zone.
+    low, high : float
+        Heights in metres where open floors and ceilings are cut.
+
+    Returns
+    -------
+    vertices : (n, 3) float
+    faces : (m, 3) int
+    """
     floor = zone.floor if np.isfinite(zone.floor) else low
     ceiling = zone.ceiling if np.isfinite(zone.ceiling) else high
     tri = np.vstack([extrude(p, max(ceiling - floor, 0.1), base=floor)
@@ -107,6 +137,18 @@ def _rows(pairs) -> str:
 
 
 def metrics_rows(m: dict) -> list[tuple[str, str]]:
+    """The report's metrics table: a label and a formatted value per metric.
+
+    Parameters
+    ----------
+    m : dict
+        ``Evaluation.metrics``.
+
+    Returns
+    -------
+    list of (str, str)
+        Label and value of each row.
+    """
     def stats(s, unit=""):
         return " / ".join(_fmt(s[k]) for k in ("min", "mean", "max")) + unit
     safe = "yes" if m["safe"] else "<span class=bad>NO</span>"
@@ -134,6 +176,18 @@ def metrics_rows(m: dict) -> list[tuple[str, str]]:
 
 
 def road_map_rows(route) -> str:
+    """The table rows of each flight's legs: from where to where, length and photos.
+
+    Parameters
+    ----------
+    route : Route
+        The route reported.
+
+    Returns
+    -------
+    str
+        HTML table rows.
+    """
     rows = []
     above = route.above_ground()
     for k in range(len(route)):
@@ -147,7 +201,18 @@ def road_map_rows(route) -> str:
 
 def flights_section(route) -> str:
     """Each battery flight in its colour: minutes flown through (as the WPML and QGroundControl
-    exports fly) and stopping at every photo, photos, path, share of the limit."""
+    exports fly) and stopping at every photo, photos, path, share of the limit.
+
+    Parameters
+    ----------
+    route : Route
+        The route reported.
+
+    Returns
+    -------
+    str
+        An HTML section.
+    """
     model = FlightModel(**(route.metrics or {}).get("flight_model", {}))
     limit = route.params.get("max_flight_min")
     through = (route.metrics or {}).get("fly_through") if route.flies_through else None
@@ -171,7 +236,18 @@ def flights_section(route) -> str:
 
 
 def path_legend(route) -> str:
-    """The path's colours: by leg for one flight, by battery flight for several."""
+    """The path's colours: by leg for one flight, by battery flight for several.
+
+    Parameters
+    ----------
+    route : Route
+        The route reported.
+
+    Returns
+    -------
+    str
+        HTML of the legend.
+    """
     if route.n_flights > 1:
         return "flights" + "".join(f'<span style="background:{flight_colour(k)}"></span>{k}'
                                    for k in range(1, route.n_flights + 1))
@@ -180,7 +256,20 @@ def path_legend(route) -> str:
 
 
 def headline(route, evaluation) -> str:
-    """The report's first lines: photos, flights and both times, coverage, clearance, take-off."""
+    """The report's first lines: photos, flights and both times, coverage, clearance, take-off.
+
+    Parameters
+    ----------
+    route : Route
+        The route reported.
+    evaluation : Evaluation
+        Its verdict.
+
+    Returns
+    -------
+    str
+        An HTML paragraph.
+    """
     m = evaluation.metrics
     minutes = [f["minutes"] for f in (route.metrics or {}).get("flights") or []]
     through = (route.metrics or {}).get("fly_through") if route.flies_through else None
@@ -198,6 +287,18 @@ def headline(route, evaluation) -> str:
 
 
 def uncovered_rows(evaluation) -> str:
+    """The table rows of the surface left uncovered, by part and by reason.
+
+    Parameters
+    ----------
+    evaluation : Evaluation
+        The evaluator's verdict.
+
+    Returns
+    -------
+    str
+        HTML table rows.
+    """
     groups = evaluation.metrics["unreachable"]
     rows = [f"<tr><td class=l>{html.escape(g['reason'])}</td><td>{g['count']}</td><td>{g['area_m2']:.1f}</td>"
             f"<td>({', '.join(f'{c:.1f}' for c in g['centroid'])})</td></tr>" for g in groups]
@@ -209,7 +310,18 @@ def uncovered_rows(evaluation) -> str:
 
 
 def simulation_rows(sim) -> str:
-    """The reconstruction table of a simulation, or a line saying how to get one."""
+    """The reconstruction table of a simulation, or a line saying how to get one.
+
+    Parameters
+    ----------
+    sim : Simulation or None
+        The simulated reconstruction.
+
+    Returns
+    -------
+    str
+        HTML.
+    """
     if sim is None:
         return ("<p>No simulation: <code>coverplan simulate ROUTE --target ... -o DIR</code> renders the photos, "
                 "reconstructs them with COLMAP and shows here what came back.</p>")
@@ -220,7 +332,18 @@ def simulation_rows(sim) -> str:
 
 
 def photos_section(check) -> str:
-    """For ``coverplan check``: its verdict, and every photo not in the model with why."""
+    """For ``coverplan check``: its verdict, and every photo not in the model with why.
+
+    Parameters
+    ----------
+    check : Check
+        ``coverplan check``'s result.
+
+    Returns
+    -------
+    str
+        HTML.
+    """
     unused = [(n, "left out before SfM: " + w) for n, w in check.left_out] + list(check.lost)
     body = "".join(f"<tr><td class=l>{html.escape(n)}</td><td class=l>{html.escape(w)}</td></tr>" for n, w in unused)
     listed = (f"<h3>Photos not in the model ({len(unused)})</h3><table id=photos-lost><tr><th class=l>photo</th>"
@@ -229,7 +352,18 @@ def photos_section(check) -> str:
 
 
 def draws_html(sim) -> str:
-    """What each drawn flight lost: photos SfM could not place, surface without a 3D point, per class."""
+    """What each drawn flight lost: photos SfM could not place, surface without a 3D point, per class.
+
+    Parameters
+    ----------
+    sim : Simulation
+        A simulation with several drawn flights.
+
+    Returns
+    -------
+    str
+        HTML.
+    """
     classes = sorted({c for d in sim.draws for c in d["by_class_pct"]})
     head = "".join(f"<th>{html.escape(c)}</th>" for c in classes)
     body = []
@@ -246,6 +380,28 @@ def draws_html(sim) -> str:
 
 def render_html(route, scene, evaluation, title: str = "coverplan flight report", simulation=None,
                 check=None) -> str:
+    """The whole report as one HTML page, its viewer's data inline.
+
+    Parameters
+    ----------
+    route : Route
+        The route reported.
+    scene : Scene
+        Its scene.
+    evaluation : Evaluation
+        Its verdict.
+    title : str
+        The page's title.
+    simulation : Simulation, optional
+        Adds what SfM recovered.
+    check : Check, optional
+        Adds a check of real photos.
+
+    Returns
+    -------
+    str
+        The page.
+    """
     simulation = check.simulation if check is not None else simulation
     data = report_data(route, scene, evaluation, simulation)
     if check is None:
@@ -333,7 +489,30 @@ def write_html_report(route, scene, path, evaluation=None, title: str | None = N
                       check=None) -> Path:
     """Write the report for ``route`` in ``scene`` (evaluating it unless given); with a
     ``simulation`` it also shows what SfM recovered and which photos it lost; with a ``check``
-    (``coverplan check``'s result) its verdict and every photo not in the model, with why."""
+    (``coverplan check``'s result) its verdict and every photo not in the model, with why.
+
+    Parameters
+    ----------
+    route : Route
+        The route reported.
+    scene : Scene
+        Its scene.
+    path : str or Path
+        The HTML file.
+    evaluation : Evaluation, optional
+        Evaluated here when None.
+    title : str, optional
+        The page's title.
+    simulation : Simulation, optional
+        A simulated reconstruction.
+    check : Check, optional
+        A check of real photos.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     if evaluation is None:
         evaluation = evaluate(route, scene)
     path = Path(path)

@@ -17,12 +17,36 @@ MAX_OUTLINE_FACES = 20_000
 
 
 def flight_colour(k: int) -> str:
-    """The colour of battery flight ``k`` (1-based), the same in the map, the 3D view and the table."""
+    """The colour of battery flight ``k`` (1-based), the same in the map, the 3D view and the table.
+
+    Parameters
+    ----------
+    k : int
+        The flight's number, from 1.
+
+    Returns
+    -------
+    str
+        A CSS colour.
+    """
     return FLIGHT_COLOURS[(k - 1) % len(FLIGHT_COLOURS)]
 
 
 def footprint(mesh, max_faces: int = MAX_OUTLINE_FACES):
-    """The mesh seen from above: the union of its triangles projected on the ground plane."""
+    """The mesh seen from above: the union of its triangles projected on the ground plane.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        The mesh.
+    max_faces : int
+        Larger meshes are simplified first.
+
+    Returns
+    -------
+    shapely.Polygon or shapely.MultiPolygon
+        The outline in x, y.
+    """
     vertices, faces = display_mesh(mesh, max_faces)
     tri = vertices[faces][:, :, :2]
     cross = (tri[:, 1, 0] - tri[:, 0, 0]) * (tri[:, 2, 1] - tri[:, 0, 1]) \
@@ -35,7 +59,20 @@ def footprint(mesh, max_faces: int = MAX_OUTLINE_FACES):
 
 
 def north_direction(route) -> tuple[np.ndarray, str]:
-    """True north as a unit (x, y) of the local frame at the take-off point, and its label."""
+    """True north as a unit (x, y) of the local frame at the take-off point, and its label.
+
+    Parameters
+    ----------
+    route : Route
+        Its georeference gives the grid's rotation from north.
+
+    Returns
+    -------
+    direction : (2,) float
+        True north in the local frame.
+    label : str
+        ``"N"``, or what the direction is without a georeference.
+    """
     if not has_georeference(route.frame):
         return np.array([0.0, 1.0]), "+y (no georeference)"
     gamma = np.radians(float(grid_convergence(route.frame, route.positions[:1])[0]))
@@ -43,7 +80,18 @@ def north_direction(route) -> tuple[np.ndarray, str]:
 
 
 def scale_length(span_m: float) -> float:
-    """A round length (1, 2 or 5 times a power of ten) near a quarter of ``span_m``."""
+    """A round length (1, 2 or 5 times a power of ten) near a quarter of ``span_m``.
+
+    Parameters
+    ----------
+    span_m : float
+        The width of the picture in metres.
+
+    Returns
+    -------
+    float
+        The scale bar's length in metres.
+    """
     target = max(span_m / 4.0, 1e-3)
     power = 10.0 ** np.floor(np.log10(target))
     return float(max(m * power for m in (1.0, 2.0, 5.0) if m * power <= target))

@@ -8,7 +8,18 @@ from coverplan.geometry.geo import has_georeference, to_lonlat
 
 
 def map_link(lat: float, lon: float) -> str:
-    """A link that opens the point in the phone's or the browser's map application."""
+    """A link that opens the point in the phone's or the browser's map application.
+
+    Parameters
+    ----------
+    lat, lon : float
+        WGS 84 degrees.
+
+    Returns
+    -------
+    str
+        The URL.
+    """
     return f"https://www.google.com/maps/search/?api=1&query={lat:.6f},{lon:.6f}"
 
 
@@ -40,7 +51,18 @@ def takeoff_point(route) -> dict:
 
 
 def takeoff_text(point: dict) -> str:
-    """One line: latitude/longitude (when known) and the model's coordinates of the take-off point."""
+    """One line: latitude/longitude (when known) and the model's coordinates of the take-off point.
+
+    Parameters
+    ----------
+    point : dict
+        ``model``: (x, y, z) in the model's coordinates; ``lat`` and ``lon``: degrees or None.
+
+    Returns
+    -------
+    str
+        The line.
+    """
     x, y, z = point["model"]
     model = f"x {x:,.2f}, y {y:,.2f}, z {z:,.2f} in the model's coordinates"
     if point["lat"] is None:

@@ -19,6 +19,22 @@ from coverplan.voxel.grid import FREE, TARGET
 
 
 def cost_grid(cells: np.ndarray, d_opt: float, d_sec: float) -> np.ndarray:
+    """The thesis's placement cost: security (far from blocked cells) plus optimality (near the ring at d_opt from the target).
+
+    Parameters
+    ----------
+    cells : ndarray of int8
+        A 2D or 3D grid's cells.
+    d_opt : float
+        The optimal distance, in cells.
+    d_sec : float
+        The security distance, in cells.
+
+    Returns
+    -------
+    ndarray of float
+        Cost per cell, inf where the drone may not be.
+    """
     d_blocked = ndimage.distance_transform_edt(cells == FREE)
     d_target = ndimage.distance_transform_edt(cells != TARGET)
     ring = np.abs(d_target - d_opt) <= 0.5
@@ -29,7 +45,18 @@ def cost_grid(cells: np.ndarray, d_opt: float, d_sec: float) -> np.ndarray:
 
 
 def grid_graph(cost: np.ndarray) -> sp.csr_matrix:
-    """Directed graph over cells (8- or 26-neighbours) weighted by the end cell's cost."""
+    """Directed graph over cells (8- or 26-neighbours) weighted by the end cell's cost.
+
+    Parameters
+    ----------
+    cost : ndarray of float
+        ``cost_grid``'s cost per cell.
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix
+        Cells by cells.
+    """
     shape = cost.shape
     flat = np.arange(cost.size).reshape(shape)
     rows, cols = [], []
@@ -48,7 +75,22 @@ def grid_graph(cost: np.ndarray) -> sp.csr_matrix:
 
 
 def cell_path(graph: sp.csr_matrix, shape, a, b) -> np.ndarray | None:
-    """Cells (k, ndim) of the cheapest path from cell a to cell b, or None when none exists."""
+    """Cells (k, ndim) of the cheapest path from cell a to cell b, or None when none exists.
+
+    Parameters
+    ----------
+    graph : scipy.sparse.csr_matrix
+        ``grid_graph``'s graph.
+    shape : tuple of int
+        The grid's shape.
+    a, b : sequence of int
+        Start and end cells.
+
+    Returns
+    -------
+    (k, ndim) int or None
+        The path's cells, from ``a`` to ``b``.
+    """
     ia = int(np.ravel_multi_index(tuple(a), shape))
     ib = int(np.ravel_multi_index(tuple(b), shape))
     if ia == ib:

@@ -26,7 +26,13 @@ PITCH_DEG = 45.0  # fixed pitch of rooftop / terrace (down) and opposed-terrace 
 
 
 def thesis_camera() -> Camera:
-    """80 deg horizontal FOV with the thesis's 10 m vertical coverage at d_opt = 7 m."""
+    """80 deg horizontal FOV with the thesis's 10 m vertical coverage at d_opt = 7 m.
+
+    Returns
+    -------
+    Camera
+        The thesis's camera.
+    """
     focal = 18.0 / np.tan(np.radians(40.0))
     height = 2 * focal * np.tan(np.arctan(5.0 / 7.0))
     return Camera(36.0, height, focal, 6000, int(round(6000 * height / 36.0)), "thesis80x71")
@@ -34,7 +40,23 @@ def thesis_camera() -> Camera:
 
 @dataclass
 class Flight:
-    """One of the thesis's paths: waypoints in metres and what happened."""
+    """One of the thesis's paths: waypoints in metres and what happened.
+
+    Parameters
+    ----------
+    name : str
+        The path's name (façade, rooftop, terrace ...).
+    positions : list of (3,) float
+        Waypoints, metres.
+    shot : list of bool
+        Whether each waypoint takes a photo.
+    heading, pitch : list of float
+        Degrees.
+    failure : str, optional
+        Why the path stopped short.
+    seconds : float
+        Planning time.
+    """
 
     name: str
     positions: list = field(default_factory=list)
@@ -46,10 +68,12 @@ class Flight:
 
     @property
     def n_shots(self) -> int:
+        """How many waypoints take a photo."""
         return int(sum(self.shot))
 
     @property
     def length(self) -> float:
+        """The path's length, metres."""
         return polyline_length(self.positions)
 
     @property
@@ -58,6 +82,17 @@ class Flight:
         return coverage_length(self.positions, self.shot)
 
     def add(self, position, shot=False, heading=0.0, pitch=0.0):
+        """Append a waypoint.
+
+        Parameters
+        ----------
+        position : (3,) float
+            Metres.
+        shot : bool
+            Whether it takes a photo.
+        heading, pitch : float
+            Degrees.
+        """
         self.positions.append(np.asarray(position, dtype=float))
         self.shot.append(bool(shot))
         self.heading.append(float(heading))
@@ -66,6 +101,19 @@ class Flight:
 
 @dataclass
 class VoxelPlan:
+    """The thesis planner's result: the route, its separate paths and the grid planned on.
+
+    Parameters
+    ----------
+    route : Route or None
+        The paths joined as one route; None when nothing was planned.
+    flights : list of Flight
+        The thesis's separate paths.
+    grid : SceneGrid
+        The rasterised scene.
+    seconds : float
+        Planning time.
+    """
     route: Route | None
     flights: list[Flight]
     grid: SceneGrid
@@ -73,6 +121,7 @@ class VoxelPlan:
 
     @property
     def failures(self) -> list[str]:
+        """One line per path that stopped short, with why."""
         return [f"{f.name}: {f.failure}" for f in self.flights if f.failure]
 
 
@@ -143,7 +192,30 @@ def _return(flight: Flight, layer: _Layer, here, start) -> None:
 
 
 def facade_flight(grid: SceneGrid, start, d_opt, d_sec, hfov, vertical_coverage, top, range_capped) -> Flight:
-    """Slices spaced by the vertical coverage up to the rooftop, linked by vertical moves."""
+    """Slices spaced by the vertical coverage up to the rooftop, linked by vertical moves.
+
+    Parameters
+    ----------
+    grid : SceneGrid
+        The 3D grid.
+    start : (3,) float
+        The initial point, metres.
+    d_opt, d_sec : float
+        Optimal and security distances, metres.
+    hfov : float
+        The camera's horizontal field of view, degrees.
+    vertical_coverage : float
+        Metres of wall a photo covers at d_opt: the slices' spacing.
+    top : float
+        The rooftop's height, metres.
+    range_capped : bool
+        A viewpoint sees only points within d_opt.
+
+    Returns
+    -------
+    Flight
+        The façade path.
+    """
     flight = Flight("facades")
     flight.add(start)
     z = grid.origin[2] + vertical_coverage / 2.0
@@ -166,6 +238,16 @@ def special_regions(grid: SceneGrid) -> list[tuple[str, int, np.ndarray]]:
     Up-facing cells (target with free above) per layer; the highest layer is the rooftop, the
     others terraces. Down-facing cells above the ground are opposed terraces. One-cell-wide
     steps (a gradual slope, as on the thesis's pyramid) are not terraces: an opening removes them.
+
+    Parameters
+    ----------
+    grid : SceneGrid
+        The 3D grid.
+
+    Returns
+    -------
+    list of (str, int, (nx, ny) bool)
+        Kind (``rooftop``, ``terrace``, ``opposed``), layer and mask.
     """
     cells = grid.cells
     target = cells == TARGET
@@ -193,6 +275,32 @@ def special_flight(grid: SceneGrid, kind: str, level: int, mask: np.ndarray, sta
 
     Each round flies round the region's edge towards free space, looking at it at 45 deg; the
     region then loses a band of the width assumed seen inwards, until nothing is left.
+
+    Parameters
+    ----------
+    grid : SceneGrid
+        The 3D grid.
+    kind : str
+        ``rooftop``, ``terrace`` or ``opposed``.
+    level : int
+        The region's layer.
+    mask : (nx, ny) bool
+        The region.
+    start : (3,) float
+        The initial point, metres.
+    d_opt, d_sec : float
+        Optimal and security distances, metres.
+    hfov : float
+        Horizontal field of view, degrees.
+    band : float
+        The width seen inwards per round, metres.
+    range_capped : bool
+        A viewpoint sees only points within d_opt.
+
+    Returns
+    -------
+    Flight
+        The region's path.
     """
     up = kind != "opposed terrace"
     # up-facing: the top face of layer ``level``; down-facing: the bottom face of layer ``level``
@@ -223,7 +331,32 @@ def special_flight(grid: SceneGrid, kind: str, level: int, mask: np.ndarray, sta
 
 def plan_3d(scene, camera, gsd: float, security: float, start, cell: float = 1.0,
             range_capped: bool = False, vertical_coverage: float | None = None) -> VoxelPlan:
-    """The thesis's 3D approach on the scene rasterised at ``cell`` metres."""
+    """The thesis's 3D approach on the scene rasterised at ``cell`` metres.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene planned.
+    camera : Camera
+        The camera flown.
+    gsd : float
+        Metres per pixel at d_opt.
+    security : float
+        The security distance, metres.
+    start : (3,) float
+        The initial point.
+    cell : float
+        The cell size, metres.
+    range_capped : bool
+        A viewpoint sees only points within d_opt.
+    vertical_coverage : float, optional
+        The slices' spacing; the camera's vertical footprint at d_opt when None.
+
+    Returns
+    -------
+    VoxelPlan
+        The paths and the route.
+    """
     t0 = time.perf_counter()
     d_opt = camera.optimal_distance(gsd)
     if vertical_coverage is None:
@@ -248,7 +381,32 @@ def plan_3d(scene, camera, gsd: float, security: float, start, cell: float = 1.0
 
 def plan_2d(grid: SceneGrid, camera, gsd: float, security: float, start, z: float = 0.5,
             range_capped: bool = False, scene=None) -> VoxelPlan:
-    """The thesis's 2D planner on one grid, flown at height ``z``."""
+    """The thesis's 2D planner on one grid, flown at height ``z``.
+
+    Parameters
+    ----------
+    grid : SceneGrid
+        A 2D grid.
+    camera : Camera
+        The camera flown.
+    gsd : float
+        Metres per pixel at d_opt.
+    security : float
+        The security distance, metres.
+    start : (2,) float
+        The initial point, metres.
+    z : float
+        The flying height, metres.
+    range_capped : bool
+        A viewpoint sees only points within d_opt.
+    scene : Scene, optional
+        The scene the route is checked against.
+
+    Returns
+    -------
+    VoxelPlan
+        One path and its route.
+    """
     t0 = time.perf_counter()
     d_opt = camera.optimal_distance(gsd)
     start = np.array([start[0], start[1], z], dtype=float)

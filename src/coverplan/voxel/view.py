@@ -24,7 +24,23 @@ BAR_RADIUS = 1  # cells around a first-loop viewpoint barred in the second loop
 @dataclass
 class Viewpoints:
     """Result of the view planner: cells, yaw (radians, counter-clockwise from +x), and why it
-    stopped when it could not cover every surface point."""
+    stopped when it could not cover every surface point.
+
+    Parameters
+    ----------
+    cells : (k, 2) int
+        The viewpoints' cells, in order.
+    yaw : (k,) float
+        Radians, counter-clockwise from +x.
+    surface : (n, 2) int
+        The surface cells, organised into a chain.
+    seen : (n,) int
+        How many viewpoints see each surface cell.
+    failure : str, optional
+        Why the planner stopped short.
+    loops : list
+        The planner's rounds, for plots.
+    """
 
     cells: np.ndarray  # (k, 2) int
     yaw: np.ndarray  # (k,)
@@ -35,7 +51,20 @@ class Viewpoints:
 
 
 def shot_region(cells: np.ndarray, d_opt: float, d_sec: float) -> np.ndarray:
-    """Eq. 3.1: free cells within d_opt of the target and at least d_sec from target and obstacles."""
+    """Eq. 3.1: free cells within d_opt of the target and at least d_sec from target and obstacles.
+
+    Parameters
+    ----------
+    cells : ndarray of int8
+        A grid's cells.
+    d_opt, d_sec : float
+        Optimal and security distances, in cells.
+
+    Returns
+    -------
+    ndarray of bool
+        The shot region.
+    """
     d_target = ndimage.distance_transform_edt(cells != TARGET)
     d_blocked = ndimage.distance_transform_edt(cells == FREE)
     return (cells == FREE) & (d_target <= d_opt) & (d_blocked >= d_sec)
@@ -43,7 +72,20 @@ def shot_region(cells: np.ndarray, d_opt: float, d_sec: float) -> np.ndarray:
 
 def surface_cells(cells: np.ndarray, next_to=None) -> np.ndarray:
     """Target cells with a 4-neighbour that is not target (the thesis's surface points), or,
-    with ``next_to``, one whose value is ``next_to``."""
+    with ``next_to``, one whose value is ``next_to``.
+
+    Parameters
+    ----------
+    cells : (nx, ny) int8
+        A 2D grid's cells.
+    next_to : int, optional
+        The neighbour value asked for.
+
+    Returns
+    -------
+    (n, 2) int
+        The surface cells.
+    """
     target = cells == TARGET
     other = (cells != TARGET) if next_to is None else (cells == next_to)
     padded = np.pad(other, 1, constant_values=next_to is None or next_to == FREE)
@@ -54,7 +96,26 @@ def surface_cells(cells: np.ndarray, next_to=None) -> np.ndarray:
 def line_of_sight(cells: np.ndarray, viewpoints: np.ndarray, points: np.ndarray, step: float = 0.25,
                   chunk: int = 64) -> np.ndarray:
     """(k, n) bool: every cell on the segment from each viewpoint to each surface point, the
-    point's own cell excepted, is free (the thesis sums the cells' values)."""
+    point's own cell excepted, is free (the thesis sums the cells' values).
+
+    Parameters
+    ----------
+    cells : (nx, ny) int8
+        A 2D grid's cells.
+    viewpoints : (k, 2) float
+        Cell coordinates.
+    points : (n, 2) int
+        Surface cells.
+    step : float
+        Sampling step along each segment, in cells.
+    chunk : int
+        Viewpoints per batch.
+
+    Returns
+    -------
+    (k, n) bool
+        Visibility.
+    """
     vis = np.zeros((len(viewpoints), len(points)), dtype=bool)
     if len(viewpoints) == 0 or len(points) == 0:
         return vis
@@ -78,6 +139,18 @@ def organise(surface: np.ndarray, first_image: np.ndarray) -> np.ndarray:
 
     Neighbours are 8-connected; where the chain breaks (sharp or thin shapes, which the thesis
     names as its weakness) the walk jumps to the nearest point not yet organised.
+
+    Parameters
+    ----------
+    surface : (n, 2) int
+        Surface cells.
+    first_image : (m,) int
+        Indices of the surface cells the first viewpoint sees.
+
+    Returns
+    -------
+    (n,) int
+        The order of the surface cells.
     """
     n = len(surface)
     tree = cKDTree(surface)
@@ -125,6 +198,28 @@ def view_plan(cells: np.ndarray, d_opt: float, d_sec: float, hfov_deg: float, in
     thesis's own rule has no range limit. ``region`` replaces the shot region (a bool grid).
     ``facing_free_only`` keeps only surface points next to free cells (a terrace's edge along
     the wall above it is seen from above, not from the side).
+
+    Parameters
+    ----------
+    cells : (nx, ny) int8
+        A 2D grid's cells.
+    d_opt, d_sec : float
+        Optimal and security distances, in cells.
+    hfov_deg : float
+        Horizontal field of view.
+    initial : (2,) float
+        The initial point.
+    range_capped : bool
+        A viewpoint sees only points within d_opt.
+    region : (nx, ny) bool, optional
+        Replaces the shot region.
+    facing_free_only : bool
+        Keep only surface points next to free cells.
+
+    Returns
+    -------
+    Viewpoints
+        The viewpoints and what they see.
     """
     sr = shot_region(cells, d_opt, d_sec) if region is None else region
     surface = surface_cells(cells, FREE if facing_free_only else None)
@@ -195,7 +290,18 @@ def view_plan(cells: np.ndarray, d_opt: float, d_sec: float, hfov_deg: float, in
 
 
 def arrange(cells: np.ndarray) -> np.ndarray:
-    """Order viewpoints by proximity to the previous one, starting with the first shot."""
+    """Order viewpoints by proximity to the previous one, starting with the first shot.
+
+    Parameters
+    ----------
+    cells : (k, 2) int
+        Viewpoint cells.
+
+    Returns
+    -------
+    (k,) int
+        Their order.
+    """
     n = len(cells)
     order = [0]
     left = np.ones(n, dtype=bool)
