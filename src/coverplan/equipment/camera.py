@@ -57,35 +57,73 @@ class Camera:
 
     @property
     def pixel_pitch_mm(self) -> float:
+        """The width of one pixel on the sensor, millimetres."""
         return self.sensor_width_mm / self.image_width_px
 
     @property
     def tan_half_hfov(self) -> float:
+        """The tangent of half the horizontal field of view."""
         return self.sensor_width_mm / (2.0 * self.focal_length_mm)
 
     @property
     def tan_half_vfov(self) -> float:
+        """The tangent of half the vertical field of view."""
         return self.sensor_height_mm / (2.0 * self.focal_length_mm)
 
     @property
     def hfov_deg(self) -> float:
+        """The horizontal field of view, degrees."""
         return math.degrees(2.0 * math.atan(self.tan_half_hfov))
 
     @property
     def vfov_deg(self) -> float:
+        """The vertical field of view, degrees."""
         return math.degrees(2.0 * math.atan(self.tan_half_vfov))
 
     def gsd_at(self, distance_m):
-        """Ground sampling distance (m/px) at a range in metres."""
+        """Ground sampling distance (m/px) at a range in metres.
+
+        Parameters
+        ----------
+        distance_m : float or array_like
+            Ranges, metres.
+
+        Returns
+        -------
+        float or ndarray
+            Metres per pixel.
+        """
         return np.asarray(distance_m, dtype=float) * self.pixel_pitch_mm / self.focal_length_mm
 
     def optimal_distance(self, gsd_m: float) -> float:
-        """Largest range at which one pixel covers at most ``gsd_m`` metres."""
+        """Largest range at which one pixel covers at most ``gsd_m`` metres.
+
+        Parameters
+        ----------
+        gsd_m : float
+            Metres per pixel.
+
+        Returns
+        -------
+        float
+            Metres.
+        """
         check_positive("gsd", gsd_m)
         return float(gsd_m) * self.focal_length_mm / self.pixel_pitch_mm
 
     def footprint(self, distance_m: float) -> tuple[float, float]:
-        """Width and height (m) imaged on a plane facing the camera at that distance."""
+        """Width and height (m) imaged on a plane facing the camera at that distance.
+
+        Parameters
+        ----------
+        distance_m : float
+            Metres.
+
+        Returns
+        -------
+        width, height : float
+            Metres.
+        """
         return 2.0 * distance_m * self.tan_half_hfov, 2.0 * distance_m * self.tan_half_vfov
 
     @property
@@ -113,7 +151,25 @@ class Camera:
 
 
 def check_positive(name: str, value) -> float:
-    """``value`` as a float, or a ParameterError naming ``name`` if it is not > 0."""
+    """``value`` as a float, or a ParameterError naming ``name`` if it is not > 0.
+
+    Parameters
+    ----------
+    name : str
+        The quantity's name, for the message.
+    value : object
+        The value given.
+
+    Returns
+    -------
+    float
+        ``value``.
+
+    Raises
+    ------
+    ParameterError
+        When ``value`` is not a number greater than 0.
+    """
     try:
         v = float(value)
     except (TypeError, ValueError):

@@ -25,7 +25,15 @@ SURVEY_SHUTTER_S = 1.0 / 500.0
 @dataclass(frozen=True)
 class PositionAccuracy:
     """How far from the commanded point the drone really is, as the maker's hover accuracy
-    bounds (metres, +-) for the positioning it flies with (``source``: "gnss" or "rtk")."""
+    bounds (metres, +-) for the positioning it flies with (``source``: "gnss" or "rtk").
+
+    Parameters
+    ----------
+    horizontal_m, vertical_m : float
+        Hover accuracy bounds, metres.
+    source : {"gnss", "rtk"}
+        The positioning they hold for.
+    """
 
     horizontal_m: float
     vertical_m: float
@@ -65,6 +73,51 @@ GIMBAL_ERROR_DEG = 0.5  # 1 sigma, gimbal pitch: assumption (makers give +-0.01 
 
 @dataclass(frozen=True)
 class DroneProfile:
+    """A drone as the planner, the flight-time model and the exports see it.
+
+    Parameters
+    ----------
+    name : str
+        The profile's key (``--drone NAME``).
+    label : str
+        The maker's name of the model.
+    camera : Camera
+        Its camera.
+    gimbal_pitch_deg : (float, float)
+        Lowest and highest pitch the planner may use.
+    max_speed : float
+        m/s.
+    ascent_speed, descent_speed : float
+        Maximum vertical speeds, m/s.
+    rated_flight_min : float
+        The maker's flight time on one battery.
+    photo_interval_s : float
+        The shortest time between two photos.
+    apps : tuple of str
+        Export formats of the apps that fly it.
+    wpml : (int, int, int), optional
+        DJI WPML droneEnumValue, droneSubEnumValue and payloadEnumValue.
+    image_format : str
+        WPML payloadParam imageFormat.
+    cruise_speed : float
+        m/s between waypoints near a building (a default, not a limit).
+    acceleration : float
+        m/s², speeding up and braking.
+    yaw_rate_deg, gimbal_rate_deg : float
+        Degrees per second.
+    sources : tuple of str
+        Where the figures come from.
+    reserve : float
+        The share of the battery kept in reserve.
+    position : PositionAccuracy
+        Hover accuracy of the positioning flown with.
+    heading_error_deg, gimbal_error_deg : float
+        1-sigma heading and gimbal pitch error.
+    shutter_s : float
+        The exposure time of a survey photo.
+    lens : Lens
+        The distortion of its photos as the camera writes them.
+    """
     name: str
     label: str
     camera: Camera
@@ -91,10 +144,22 @@ class DroneProfile:
 
     @property
     def usable_flight_min(self) -> float:
+        """Minutes of one battery flight after the reserve."""
         return round(self.rated_flight_min * (1.0 - self.reserve), 1)
 
     def flight_model(self, cruise_speed: float | None = None) -> FlightModel:
-        """The time model for this drone; ``cruise_speed`` (m/s) overrides the default."""
+        """The time model for this drone; ``cruise_speed`` (m/s) overrides the default.
+
+        Parameters
+        ----------
+        cruise_speed : float, optional
+            m/s.
+
+        Returns
+        -------
+        FlightModel
+            Its speeds, acceleration and rates.
+        """
         speed = self.cruise_speed if cruise_speed is None else float(cruise_speed)
         if not 0 < speed <= self.max_speed:
             raise ParameterError(f"speed {speed:g} m/s is outside what the {self.label} flies (0, {self.max_speed:g}]")
@@ -170,7 +235,23 @@ DRONES: dict[str, DroneProfile] = {
 }
 
 def get_drone(name: str) -> DroneProfile:
-    """The profile called ``name``; the error lists the profiles that exist."""
+    """The profile called ``name``; the error lists the profiles that exist.
+
+    Parameters
+    ----------
+    name : str
+        A profile's key, any case.
+
+    Returns
+    -------
+    DroneProfile
+        The profile.
+
+    Raises
+    ------
+    ParameterError
+        When no profile has that name.
+    """
     try:
         return DRONES[name.lower()]
     except KeyError:
@@ -181,7 +262,17 @@ def get_drone(name: str) -> DroneProfile:
 @dataclass(frozen=True)
 class PoseError:
     """A drone's own pose error as 1-sigma values: the flight-wide position bias and the
-    per-photo wander (metres, horizontal per axis and vertical), heading and gimbal pitch (deg)."""
+    per-photo wander (metres, horizontal per axis and vertical), heading and gimbal pitch (deg).
+
+    Parameters
+    ----------
+    bias_h, bias_v : float
+        Flight-wide position bias, metres (horizontal per axis, vertical).
+    jitter_h, jitter_v : float
+        Per-photo wander, metres.
+    heading_deg, pitch_deg : float
+        Heading and gimbal pitch error, degrees.
+    """
 
     bias_h: float
     bias_v: float
@@ -192,7 +283,18 @@ class PoseError:
 
     @classmethod
     def of_drone(cls, drone: "DroneProfile | None") -> "PoseError":
-        """The profile's error, or a GNSS drone's without RTK (TYPICAL_GNSS) when None."""
+        """The profile's error, or a GNSS drone's without RTK (TYPICAL_GNSS) when None.
+
+        Parameters
+        ----------
+        drone : DroneProfile or None
+            The drone flown.
+
+        Returns
+        -------
+        PoseError
+            Its 1-sigma errors.
+        """
         accuracy = drone.position if drone is not None else TYPICAL_GNSS
         (bh, bv), (jh, jv) = accuracy.bias_sigma, accuracy.jitter_sigma
         if drone is None:
@@ -208,7 +310,20 @@ def security_shortfall(security: float, drone: "DroneProfile | None") -> str | N
 
     The security distance is the drone's only protection against its position error, so it
     should be at least the horizontal hover accuracy bound plus POSITION_MARGIN_M. Without a
-    profile, a GNSS drone without RTK (TYPICAL_GNSS) is assumed."""
+    profile, a GNSS drone without RTK (TYPICAL_GNSS) is assumed.
+
+    Parameters
+    ----------
+    security : float
+        The security distance, metres.
+    drone : DroneProfile or None
+        The drone flown.
+
+    Returns
+    -------
+    str or None
+        The reason, naming the distance that would do.
+    """
     acc = drone.position if drone is not None else TYPICAL_GNSS
     need = acc.horizontal_m + POSITION_MARGIN_M
     if float(security) >= need - 1e-9:
@@ -219,17 +334,48 @@ def security_shortfall(security: float, drone: "DroneProfile | None") -> str | N
 
 
 def drone_of_route(route) -> DroneProfile | None:
-    """The profile a route was planned with (its ``params["drone"]``), if any."""
+    """The profile a route was planned with (its ``params["drone"]``), if any.
+
+    Parameters
+    ----------
+    route : Route
+        A planned route.
+
+    Returns
+    -------
+    DroneProfile or None
+        The profile.
+    """
     name = route.params.get("drone")
     return DRONES.get(str(name).lower()) if name else None
 
 
 def with_gimbal(drone: DroneProfile, lowest: float, highest: float) -> DroneProfile:
-    """The profile with another gimbal range (a gimbal that cannot look up, say)."""
+    """The profile with another gimbal range (a gimbal that cannot look up, say).
+
+    Parameters
+    ----------
+    drone : DroneProfile
+        The profile.
+    lowest, highest : float
+        Degrees.
+
+    Returns
+    -------
+    DroneProfile
+        A new profile.
+    """
     return replace(drone, gimbal_pitch_deg=(float(lowest), float(highest)))
 
 
 def drones_table() -> str:
+    """The profiles as a terminal table (``coverplan drones``).
+
+    Returns
+    -------
+    str
+        One line per profile under a header.
+    """
     rows = [("name", "drone", "camera", "gimbal deg", "speed m/s", "flight min", "photo s", "position", "apps")]
     for d in DRONES.values():
         rows.append((d.name, d.label, d.camera.name or "", f"{d.gimbal_pitch_deg[0]:g}..{d.gimbal_pitch_deg[1]:+g}",

@@ -25,7 +25,17 @@ UNDISTORT_ITERATIONS = 20
 @dataclass(frozen=True)
 class Lens:
     """Radial (``k1``, ``k2``, ``k3``) and tangential (``p1``, ``p2``) distortion; all zero is a
-    pinhole."""
+    pinhole.
+
+    Parameters
+    ----------
+    k1, k2, k3 : float
+        Radial coefficients (Brown-Conrady, normalised image coordinates).
+    p1, p2 : float
+        Tangential coefficients.
+    source : str
+        Where the coefficients come from.
+    """
 
     k1: float = 0.0
     k2: float = 0.0
@@ -42,6 +52,7 @@ class Lens:
 
     @property
     def is_pinhole(self) -> bool:
+        """True when every coefficient is zero."""
         return not any((self.k1, self.k2, self.p1, self.p2, self.k3))
 
     @property
@@ -73,7 +84,18 @@ class Lens:
     def undistort(self, xy_d: np.ndarray) -> np.ndarray:
         """The normalised points the lens images at ``xy_d`` (n, 2): the inverse of ``distort``,
         by fixed-point iteration (converges for the distortion of a photo lens within its
-        field of view)."""
+        field of view).
+
+        Parameters
+        ----------
+        xy_d : (n, 2) float
+            Distorted normalised image coordinates.
+
+        Returns
+        -------
+        (n, 2) float
+            Undistorted normalised coordinates.
+        """
         xy_d = np.asarray(xy_d, dtype=float)
         if self.is_pinhole:
             return xy_d.copy()
@@ -89,7 +111,22 @@ class Lens:
 
     def dewarp_data(self, fx: float, fy: float, dx: float = 0.0, dy: float = 0.0, date: str = "2024-01-01") -> str:
         """The lens as DJI's ``DewarpData`` XMP tag: ``date;fx,fy,cx,cy,k1,k2,p1,p2,k3`` (focal
-        lengths in px, the optical centre's offset from the photo's centre in px)."""
+        lengths in px, the optical centre's offset from the photo's centre in px).
+
+        Parameters
+        ----------
+        fx, fy : float
+            Focal lengths, px.
+        dx, dy : float
+            The optical centre's offset from the photo's centre, px.
+        date : str
+            The calibration date written first.
+
+        Returns
+        -------
+        str
+            The tag's value.
+        """
         values = (fx, fy, dx, dy) + self.opencv
         return f"{date};" + ",".join(f"{float(v):.12f}" for v in values)
 
@@ -100,7 +137,17 @@ PINHOLE = Lens()
 @dataclass(frozen=True)
 class Dewarp:
     """DJI's ``DewarpData``: the calibrated focal lengths (px), optical-centre offset from the
-    photo's centre (px) and the lens."""
+    photo's centre (px) and the lens.
+
+    Parameters
+    ----------
+    fx, fy : float
+        Focal lengths, px.
+    dx, dy : float
+        Optical-centre offset from the photo's centre, px.
+    lens : Lens
+        The distortion.
+    """
 
     fx: float
     fy: float
@@ -110,7 +157,18 @@ class Dewarp:
 
 
 def parse_dewarp_data(text: str) -> Dewarp | None:
-    """DJI's ``DewarpData`` (``date;fx,fy,cx,cy,k1,k2,p1,p2,k3``), or None if ``text`` is not one."""
+    """DJI's ``DewarpData`` (``date;fx,fy,cx,cy,k1,k2,p1,p2,k3``), or None if ``text`` is not one.
+
+    Parameters
+    ----------
+    text : str
+        The tag's value.
+
+    Returns
+    -------
+    Dewarp or None
+        The calibration.
+    """
     if not text:
         return None
     body = str(text).strip().rpartition(";")[2]

@@ -29,14 +29,33 @@ MARGINS = ("field", "none")
 
 @dataclass(frozen=True)
 class PoseMargin:
-    """How much the rules are tightened, in degrees."""
+    """How much the rules are tightened, in degrees.
+
+    Parameters
+    ----------
+    frame_h_deg, frame_v_deg : float
+        Degrees cut from each side of the frame, horizontally and vertically.
+    pair_deg : float
+        Degrees taken from the largest matching-pair angle.
+    """
 
     frame_h_deg: float  # taken off each side of the frame, horizontally
     frame_v_deg: float  # and vertically
     pair_deg: float  # off the widest matchable pair, onto the narrowest triangulating one
 
     def camera(self, camera: Camera) -> Camera:
-        """The camera with its frame shrunk (same focal length and pixel pitch: same GSD)."""
+        """The camera with its frame shrunk (same focal length and pixel pitch: same GSD).
+
+        Parameters
+        ----------
+        camera : Camera
+            The camera asked for.
+
+        Returns
+        -------
+        Camera
+            The narrowed camera.
+        """
         if self.frame_h_deg == 0 and self.frame_v_deg == 0:
             return camera
         half_h = math.atan(camera.tan_half_hfov) - math.radians(self.frame_h_deg)
@@ -68,6 +87,11 @@ def margin_for(kind: str, drone: DroneProfile | None, standoff_m: float) -> Pose
     drone : DroneProfile or None
     standoff_m : float
         The planned distance to the surface, metres.
+
+    Returns
+    -------
+    PoseMargin
+        How much the rules are tightened; nothing for ``kind="none"``.
     """
     if kind not in MARGINS:
         raise ParameterError(f"margin must be one of {', '.join(MARGINS)}, got {kind!r}")
@@ -81,7 +105,24 @@ def margin_for(kind: str, drone: DroneProfile | None, standoff_m: float) -> Pose
 
 
 def tightened(match, min_triangulation_deg: float, margin: PoseMargin):
-    """(match rule, min triangulation angle) with the margin's pair angle applied."""
+    """(match rule, min triangulation angle) with the margin's pair angle applied.
+
+    Parameters
+    ----------
+    match : MatchRule or None
+        The matching rule.
+    min_triangulation_deg : float
+        The least triangulation angle asked.
+    margin : PoseMargin
+        The margin.
+
+    Returns
+    -------
+    match : MatchRule or None
+        With ``max_pair_deg`` lowered by the margin.
+    min_triangulation_deg : float
+        Raised by the margin.
+    """
     tri = float(min_triangulation_deg) + margin.pair_deg
     if match is None or margin.pair_deg == 0:
         return match, tri
