@@ -29,7 +29,20 @@ def _union(meshes: list[trimesh.Trimesh]) -> trimesh.Trimesh | None:
 def merge_into_target(scene: Scene, within: float) -> Scene:
     """Scene in which obstacles closer than ``within`` to the target, and target parts that
     overlap, are one target mesh (or side-by-side target parts where no boolean is possible).
-    Its ``source`` records the merge, so that a route's scene is loaded again the same way."""
+    Its ``source`` records the merge, so that a route's scene is loaded again the same way.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    within : float
+        Metres.
+
+    Returns
+    -------
+    Scene
+        A new scene.
+    """
     merged = _merged(scene, within)
     if scene.source is not None:
         merged = merged if merged is not scene else _rebuilt(scene, list(scene.parts), list(scene.notes))
@@ -63,7 +76,18 @@ def _merged(scene: Scene, within: float) -> Scene:
 
 
 def unite_overlapping_targets(scene: Scene) -> Scene:
-    """Unite target parts that touch or overlap (e.g. building parts), when they are closed."""
+    """Unite target parts that touch or overlap (e.g. building parts), when they are closed.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+
+    Returns
+    -------
+    Scene
+        ``scene`` itself when nothing overlaps, else a new scene.
+    """
     targets = [p for p in scene.parts if p.role == "target"]
     if len(targets) < 2:
         return scene

@@ -32,7 +32,23 @@ _FACES = [  # per direction: the 4 corner offsets of the face, counter-clockwise
 
 
 def parse_classes(text: str | None):
-    """'3,4,5' -> (3, 4, 5); None -> None (every class but ground and noise)."""
+    """'3,4,5' -> (3, 4, 5); None -> None (every class but ground and noise).
+
+    Parameters
+    ----------
+    text : str or None
+        Comma-separated ASPRS class numbers.
+
+    Returns
+    -------
+    tuple of int or None
+        The classes kept.
+
+    Raises
+    ------
+    ParameterError
+        When an item is not a class number.
+    """
     if text is None:
         return None
     try:
@@ -51,7 +67,24 @@ def _keep(classification, classes) -> np.ndarray:
 
 
 def voxel_keys(path, resolution: float, classes=None) -> tuple[np.ndarray, int, int]:
-    """Integer voxel indices (n, 3) occupied by the kept points; also points read and kept."""
+    """Integer voxel indices (n, 3) occupied by the kept points; also points read and kept.
+
+    Parameters
+    ----------
+    path : str or Path
+        A LAS or LAZ file.
+    resolution : float
+        The voxel size, metres.
+    classes : tuple of int, optional
+        The classes kept.
+
+    Returns
+    -------
+    keys : (n, 3) int
+        Occupied voxels.
+    read, kept : int
+        Points read and points kept.
+    """
     path = Path(path)
     ext = path.suffix.lower()
     chunks, read, kept = [], 0, 0
@@ -130,7 +163,20 @@ def _close_edge_contacts(occupied: np.ndarray) -> int:
 
 def voxel_mesh(keys: np.ndarray, resolution: float) -> trimesh.Trimesh:
     """The outer faces of the voxels ``keys`` (integer indices), as a closed, outward, manifold
-    mesh in metres (voxels touching only along an edge are joined first, enclosed hollows filled)."""
+    mesh in metres (voxels touching only along an edge are joined first, enclosed hollows filled).
+
+    Parameters
+    ----------
+    keys : (n, 3) int
+        Occupied voxels.
+    resolution : float
+        The voxel size, metres.
+
+    Returns
+    -------
+    trimesh.Trimesh
+        The closed mesh.
+    """
     keys = np.asarray(keys, dtype=np.int64).reshape(-1, 3)
     lo = keys.min(axis=0) - 1
     dims = keys.max(axis=0) - lo + 2  # an empty rim of one cell all round
@@ -157,7 +203,24 @@ def voxel_mesh(keys: np.ndarray, resolution: float) -> trimesh.Trimesh:
 
 
 def point_obstacle(path, resolution: float = 0.5, classes=None) -> tuple[trimesh.Trimesh, str]:
-    """The cloud's occupied voxels as a mesh, and a note saying what was kept."""
+    """The cloud's occupied voxels as a mesh, and a note saying what was kept.
+
+    Parameters
+    ----------
+    path : str or Path
+        A LAS or LAZ file.
+    resolution : float
+        The voxel size, metres.
+    classes : tuple of int, optional
+        The classes kept.
+
+    Returns
+    -------
+    mesh : trimesh.Trimesh
+        The obstacle.
+    note : str
+        What was read and kept.
+    """
     if not (np.isfinite(resolution) and resolution > 0):
         raise ParameterError(f"--points-resolution must be a positive number, got {resolution!r}")
     path = Path(path)

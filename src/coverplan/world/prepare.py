@@ -18,6 +18,26 @@ def prepare_mesh(mesh: trimesh.Trimesh, label: str) -> tuple[trimesh.Trimesh, li
 
     Refuses NaN/inf vertices. Merges duplicate vertices, drops degenerate and duplicate
     faces, and orients normals outward where the mesh is a closed solid.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        The mesh as read.
+    label : str
+        Its name, for notes and errors.
+
+    Returns
+    -------
+    mesh : trimesh.Trimesh
+        The cleaned mesh.
+    notes : list of str
+        What was done.
+
+    Raises
+    ------
+    InputFileError
+        A mesh without usable faces, with NaN, infinite or implausibly large coordinates, or
+        with faces referring to missing vertices.
     """
     notes: list[str] = []
     vertices = np.asarray(mesh.vertices, dtype=float)
@@ -72,6 +92,16 @@ def orient_faces(mesh: trimesh.Trimesh) -> int:
     face's flip as the parity of disagreeing edges on its path to the root (pointer jumping).
     A body whose signed volume about its centroid comes out negative is turned round.
     Returns how many faces were flipped.
+
+    Parameters
+    ----------
+    mesh : trimesh.Trimesh
+        Changed in place.
+
+    Returns
+    -------
+    int
+        Faces flipped.
     """
     faces = np.asarray(mesh.faces)
     n = len(faces)

@@ -23,7 +23,19 @@ LOCAL_ORIGIN_THRESHOLD = 1.0e4
 
 @dataclass
 class MeshPart:
-    """One mesh of the scene and what it is."""
+    """One mesh of the scene and what it is.
+
+    Parameters
+    ----------
+    name : str
+        The part's name.
+    role : {"target", "obstacle"}
+        What the planner does with it.
+    mesh : trimesh.Trimesh
+        The mesh, metres in the local frame.
+    source : str
+        The file it came from.
+    """
 
     name: str
     role: str  # "target" | "obstacle"
@@ -82,21 +94,37 @@ class Scene:
 
     @property
     def targets(self) -> list[MeshPart]:
+        """The parts to photograph."""
         return [p for p in self.parts if p.role == "target"]
 
     @property
     def obstacles(self) -> list[MeshPart]:
+        """The parts to keep clear of."""
         return [p for p in self.parts if p.role == "obstacle"]
 
     @property
     def meshes(self) -> list[trimesh.Trimesh]:
+        """Every part's mesh, in the parts' order."""
         return [p.mesh for p in self.parts]
 
     @property
     def target_indices(self) -> np.ndarray:
+        """The indices of the target parts."""
         return np.array([i for i, p in enumerate(self.parts) if p.role == "target"], dtype=int)
 
     def bounds(self, role: str | None = None) -> np.ndarray:
+        """The box round the parts.
+
+        Parameters
+        ----------
+        role : {"target", "obstacle"}, optional
+            Only the parts with this role.
+
+        Returns
+        -------
+        (2, 3) float
+            Lower and upper corners.
+        """
         parts = self.parts if role is None else [p for p in self.parts if p.role == role]
         b = np.array([p.mesh.bounds for p in parts])
         return np.array([b[:, 0].min(axis=0), b[:, 1].max(axis=0)])
@@ -116,11 +144,33 @@ class Scene:
         return RayCaster(self.meshes, epsilon=self.epsilon, sheets=[self.terrain.mesh] if self.terrain else [])
 
     def cover_edge(self, security: float) -> float:
-        """The clearance models' surface-cover spacing for one security distance."""
+        """The clearance models' surface-cover spacing for one security distance.
+
+        Parameters
+        ----------
+        security : float
+            Metres.
+
+        Returns
+        -------
+        float
+            Metres.
+        """
         return float(np.clip(security / 2.0, self.extent / 2000.0, max(self.extent / 20.0, 1e-3)))
 
     def clearance_model(self, security: float):
-        """Clearance queries tuned for one security distance (cached per distance)."""
+        """Clearance queries tuned for one security distance (cached per distance).
+
+        Parameters
+        ----------
+        security : float
+            Metres.
+
+        Returns
+        -------
+        ClearanceModel
+            Distances to the scene's meshes and terrain.
+        """
         edge = self.cover_edge(security)
         key = round(edge, 6)
         if key not in self._clearance:
@@ -128,11 +178,34 @@ class Scene:
         return self._clearance[key]
 
     def ground_at(self, xy) -> np.ndarray:
-        """Ground height under each (x, y): the terrain's, or the flat ``ground_z``."""
+        """Ground height under each (x, y): the terrain's, or the flat ``ground_z``.
+
+        Parameters
+        ----------
+        xy : (n, 2) float
+            Local coordinates.
+
+        Returns
+        -------
+        (n,) float
+            Metres.
+        """
         xy = np.asarray(xy, dtype=float).reshape(-1, 2)
         return self.terrain.height(xy) if self.terrain is not None else np.full(len(xy), float(self.ground_z))
 
     def describe(self, index: int) -> str:
+        """What a mesh index names, as messages say it ("target 'north wing'", "the ground").
+
+        Parameters
+        ----------
+        index : int
+            A part's index, or the terrain's (after the parts).
+
+        Returns
+        -------
+        str
+            The description.
+        """
         if index >= len(self.parts):  # the terrain, cast after the meshes
             return f"the ground ({self.terrain.source})" if self.terrain else "the ground"
         part = self.parts[index]
@@ -151,17 +224,58 @@ class Scene:
         return frame
 
     def to_source(self, points) -> np.ndarray:
-        """Local coordinates back to the source frame."""
+        """Local coordinates back to the source frame.
+
+        Parameters
+        ----------
+        points : (n, 3) float
+            Local coordinates.
+
+        Returns
+        -------
+        (n, 3) float
+            Source coordinates, metres.
+        """
         return np.asarray(points, dtype=float) + self.origin
 
     def to_local(self, points) -> np.ndarray:
-        """Points in the input models' coordinates (metres) into the local frame."""
+        """Points in the input models' coordinates (metres) into the local frame.
+
+        Parameters
+        ----------
+        points : (n, 3) float
+            Source coordinates, metres.
+
+        Returns
+        -------
+        (n, 3) float
+            Local coordinates.
+        """
         return np.asarray(points, dtype=float) - self.origin
 
 
 def build_scene(parts: Sequence[MeshPart], *, ground: float | None = None, crs: str | None = None,
                 vertical_crs: str | None = None, notes: Sequence[str] = ()) -> Scene:
-    """Prepare meshes already in metres and move far-away coordinates to a local origin."""
+    """Prepare meshes already in metres and move far-away coordinates to a local origin.
+
+    Parameters
+    ----------
+    parts : sequence of MeshPart
+        The meshes.
+    ground : float, optional
+        The ground's height in the source frame; the lowest vertex when None.
+    crs : str, optional
+        The source coordinates' CRS.
+    vertical_crs : str, optional
+        The heights' datum.
+    notes : sequence of str
+        Notes kept with the scene.
+
+    Returns
+    -------
+    Scene
+        The scene.
+    """
     notes = list(notes)
     prepared = []
     for part in parts:
@@ -182,7 +296,22 @@ def build_scene(parts: Sequence[MeshPart], *, ground: float | None = None, crs: 
 
 def scene_from_meshes(targets: Sequence[trimesh.Trimesh], obstacles: Sequence[trimesh.Trimesh] = (),
                       ground: float | None = None) -> Scene:
-    """A Scene from in-memory meshes (metres), named target0.., obstacle0.."""
+    """A Scene from in-memory meshes (metres), named target0.., obstacle0..
+
+    Parameters
+    ----------
+    targets : sequence of trimesh.Trimesh
+        The target's meshes.
+    obstacles : sequence of trimesh.Trimesh
+        Obstacles.
+    ground : float, optional
+        The ground's height.
+
+    Returns
+    -------
+    Scene
+        The scene.
+    """
     parts = [MeshPart(f"target{i}", "target", m.copy()) for i, m in enumerate(targets)]
     parts += [MeshPart(f"obstacle{i}", "obstacle", m.copy()) for i, m in enumerate(obstacles)]
     return build_scene(parts, ground=ground)

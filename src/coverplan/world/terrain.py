@@ -36,7 +36,19 @@ TERRAIN_MARGIN_M = 250.0
 
 @dataclass
 class Terrain:
-    """Ground heights (m, local frame) at grid nodes x0 + i*dx, y0 + j*dy: ``heights[j, i]``."""
+    """Ground heights (m, local frame) at grid nodes x0 + i*dx, y0 + j*dy: ``heights[j, i]``.
+
+    Parameters
+    ----------
+    x0, y0 : float
+        The first node, metres.
+    dx, dy : float
+        Node spacing, metres.
+    heights : (ny, nx) float
+        Ground heights, metres.
+    source : str
+        Where they come from.
+    """
 
     x0: float
     y0: float
@@ -56,6 +68,7 @@ class Terrain:
 
     @property
     def shape(self) -> tuple[int, int]:
+        """(ny, nx): the grid's nodes."""
         return self.heights.shape
 
     def _grid_coords(self, xy):
@@ -75,15 +88,48 @@ class Terrain:
                         h11 + (1.0 - fu) * (h01 - h11) + (1.0 - fv) * (h10 - h11))
 
     def height(self, xy) -> np.ndarray:
-        """Ground height under each (x, y)."""
+        """Ground height under each (x, y).
+
+        Parameters
+        ----------
+        xy : (n, 2) float
+            Local coordinates.
+
+        Returns
+        -------
+        (n,) float
+            Metres, interpolated on the grid's triangles.
+        """
         return self._height_uv(*self._grid_coords(xy))
 
     def lowest_in(self, lo_xy, hi_xy) -> float:
-        """Lowest ground over the box [lo_xy, hi_xy] (clamped to the grid like ``height``)."""
+        """Lowest ground over the box [lo_xy, hi_xy] (clamped to the grid like ``height``).
+
+        Parameters
+        ----------
+        lo_xy, hi_xy : (2,) float
+            The box's corners.
+
+        Returns
+        -------
+        float
+            Metres.
+        """
         return float(self._block(lo_xy, hi_xy).min())
 
     def highest_in(self, lo_xy, hi_xy) -> float:
-        """Highest ground over the box [lo_xy, hi_xy] (clamped to the grid like ``height``)."""
+        """Highest ground over the box [lo_xy, hi_xy] (clamped to the grid like ``height``).
+
+        Parameters
+        ----------
+        lo_xy, hi_xy : (2,) float
+            The box's corners.
+
+        Returns
+        -------
+        float
+            Metres.
+        """
         return float(self._block(lo_xy, hi_xy).max())
 
     def _block(self, lo_xy, hi_xy) -> np.ndarray:
@@ -123,7 +169,20 @@ class Terrain:
     def mesh_within(self, lo_xy, hi_xy, max_cells: int | None = 40_000) -> trimesh.Trimesh:
         """The ground over the box ``lo_xy``-``hi_xy`` (and one node beyond) through every k-th
         grid node, k such that at most about ``max_cells`` cells remain (for pictures; None:
-        every node, the ground exactly)."""
+        every node, the ground exactly).
+
+        Parameters
+        ----------
+        lo_xy, hi_xy : (2,) float
+            The box's corners.
+        max_cells : int or None
+            The most cells kept.
+
+        Returns
+        -------
+        trimesh.Trimesh
+            The ground's surface.
+        """
         ny, nx = self.shape
         u, v = self._grid_coords(np.array([lo_xy[:2], hi_xy[:2]], dtype=float))
         i0, i1 = int(np.clip(np.floor(u[0]) - 1, 0, nx - 2)), int(np.clip(np.ceil(u[1]) + 1, 1, nx - 1))
@@ -142,6 +201,16 @@ class Terrain:
         by the ball's upper half, then each node the highest of its cells: on or above the true
         envelope everywhere, by up to about a cell's rise; over flat ground exactly ``distance``
         above it. Cached per distance.
+
+        Parameters
+        ----------
+        distance : float
+            Metres.
+
+        Returns
+        -------
+        Terrain
+            On the same grid.
         """
         cache = self.__dict__.setdefault("_envelopes", {})
         key = round(float(distance), 9)
@@ -165,7 +234,24 @@ class Terrain:
     def segments_above(self, starts, ends, altitude: float, tol: float = 1e-6,
                        max_checks: int = 4_000_000) -> np.ndarray:
         """Whether every point of each segment is at least ``altitude`` above the ground
-        (exact for this piecewise-linear ground, up to ``tol``)."""
+        (exact for this piecewise-linear ground, up to ``tol``).
+
+        Parameters
+        ----------
+        starts, ends : (n, 3) float
+            The segments.
+        altitude : float
+            Metres.
+        tol : float
+            Metres.
+        max_checks : int
+            Crossings tested per batch.
+
+        Returns
+        -------
+        (n,) bool
+            Segments that keep the altitude.
+        """
         a = np.asarray(starts, dtype=float).reshape(-1, 3)
         b = np.asarray(ends, dtype=float).reshape(-1, 3)
         if not len(a):
@@ -183,11 +269,37 @@ class Terrain:
 
     def lowest_above(self, starts, ends, max_checks: int = 4_000_000) -> np.ndarray:
         """Each segment's lowest height above the ground (exact: at its ends or where it crosses
-        a grid line or a cell's diagonal)."""
+        a grid line or a cell's diagonal).
+
+        Parameters
+        ----------
+        starts, ends : (n, 3) float
+            The segments.
+        max_checks : int
+            Crossings tested per batch.
+
+        Returns
+        -------
+        (n,) float
+            Metres.
+        """
         return self._extreme_above(starts, ends, np.minimum, np.inf, max_checks)
 
     def highest_above(self, starts, ends, max_checks: int = 4_000_000) -> np.ndarray:
-        """Each segment's greatest height above the ground (exact, as ``lowest_above``)."""
+        """Each segment's greatest height above the ground (exact, as ``lowest_above``).
+
+        Parameters
+        ----------
+        starts, ends : (n, 3) float
+            The segments.
+        max_checks : int
+            Crossings tested per batch.
+
+        Returns
+        -------
+        (n,) float
+            Metres.
+        """
         return self._extreme_above(starts, ends, np.maximum, -np.inf, max_checks)
 
     def _extreme_above(self, starts, ends, pick, empty: float, max_checks: int) -> np.ndarray:
@@ -234,7 +346,24 @@ class Terrain:
     @classmethod
     def from_triangles(cls, triangles, lo_xy, hi_xy, step: float, source: str) -> "Terrain":
         """Heights of the highest of ``triangles`` over a grid on [lo_xy, hi_xy]; nodes no
-        triangle covers take the nearest covered node's height."""
+        triangle covers take the nearest covered node's height.
+
+        Parameters
+        ----------
+        triangles : (m, 3, 3) float
+            The ground's triangles.
+        lo_xy, hi_xy : (2,) float
+            The grid's corners.
+        step : float
+            Node spacing, metres.
+        source : str
+            Where the triangles come from.
+
+        Returns
+        -------
+        Terrain
+            The grid.
+        """
         tri = np.asarray(triangles, dtype=float).reshape(-1, 3, 3)
         if not len(tri):
             raise InputFileError(source, "holds no ground surfaces")
@@ -258,7 +387,25 @@ def _axis(lo: float, hi: float, step: float) -> np.ndarray:
 
 
 def fill_gaps(heights: np.ndarray, source: str) -> np.ndarray:
-    """NaN cells take their nearest valid cell's height (under buildings, past a raster's edge)."""
+    """NaN cells take their nearest valid cell's height (under buildings, past a raster's edge).
+
+    Parameters
+    ----------
+    heights : (ny, nx) float
+        Heights with NaN where unknown.
+    source : str
+        The raster's name, for the error.
+
+    Returns
+    -------
+    (ny, nx) float
+        ``heights``, filled in place.
+
+    Raises
+    ------
+    InputFileError
+        When no cell around the target has a height.
+    """
     from scipy import ndimage
     missing = ~np.isfinite(heights)
     if missing.all():
@@ -271,7 +418,28 @@ def fill_gaps(heights: np.ndarray, source: str) -> np.ndarray:
 
 def read_dtm(path, scene_crs: str | None, origin, lo_xy, hi_xy, unit_m: float = 1.0) -> tuple[Terrain, list[str]]:
     """A DTM raster over the source-frame box [lo_xy, hi_xy] (grown by TERRAIN_MARGIN_M), in
-    the scene's CRS and local frame (``origin`` subtracted), and notes on what was done."""
+    the scene's CRS and local frame (``origin`` subtracted), and notes on what was done.
+
+    Parameters
+    ----------
+    path : str or Path
+        A raster rasterio reads (GeoTIFF).
+    scene_crs : str or None
+        The scene's CRS; the raster is reprojected to it.
+    origin : (3,) float
+        The local frame's origin in the source frame.
+    lo_xy, hi_xy : (2,) float
+        The box needed, source frame.
+    unit_m : float
+        Metres per unit of the scene's coordinates.
+
+    Returns
+    -------
+    terrain : Terrain
+        In the local frame.
+    notes : list of str
+        What was done.
+    """
     try:
         import rasterio
         from rasterio.enums import Resampling

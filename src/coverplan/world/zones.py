@@ -26,7 +26,19 @@ KEEP_OUT, KEEP_IN = "keep-out", "keep-in"
 @dataclass(frozen=True, eq=False)
 class Zone:
     """One prism: ``polygon`` (shapely Polygon or MultiPolygon, local x, y in m) from
-    ``floor`` to ``ceiling`` (local z, m)."""
+    ``floor`` to ``ceiling`` (local z, m).
+
+    Parameters
+    ----------
+    name : str
+        The zone's name.
+    kind : {"keep_out", "keep_in"}
+        Whether the flight must stay out or in.
+    polygon : shapely.Polygon or shapely.MultiPolygon
+        Local x, y, metres.
+    floor, ceiling : float
+        Local z, metres.
+    """
 
     name: str
     kind: str  # KEEP_OUT or KEEP_IN
@@ -41,6 +53,7 @@ class Zone:
 
     @property
     def label(self) -> str:
+        """How messages name the zone."""
         return f"{self.kind} zone {self.name}"
 
     def to_dict(self) -> dict:
@@ -63,7 +76,13 @@ class Zone:
 
 @dataclass(frozen=True)
 class Zones:
-    """The zones a flight must respect."""
+    """The zones a flight must respect.
+
+    Parameters
+    ----------
+    zones : tuple of Zone
+        Every zone.
+    """
 
     zones: tuple[Zone, ...] = ()
 
@@ -75,17 +94,38 @@ class Zones:
 
     @property
     def keep_out(self) -> list[Zone]:
+        """The keep-out zones."""
         return [z for z in self.zones if z.kind == KEEP_OUT]
 
     @property
     def keep_in(self) -> list[Zone]:
+        """The keep-in zones."""
         return [z for z in self.zones if z.kind == KEEP_IN]
 
     def to_list(self) -> list[dict]:
+        """The zones as the route file's ``params.zones``.
+
+        Returns
+        -------
+        list of dict
+            One dict per zone.
+        """
         return [z.to_dict() for z in self.zones]
 
     @classmethod
     def from_list(cls, items) -> Zones:
+        """The zones of a route file's ``params.zones``.
+
+        Parameters
+        ----------
+        items : list of dict or None
+            As ``to_list`` writes them.
+
+        Returns
+        -------
+        Zones
+            The zones.
+        """
         return cls(tuple(Zone.from_dict(d) for d in (items or ())))
 
     def points_allowed(self, points) -> np.ndarray:
@@ -175,7 +215,18 @@ class Zones:
     def grown(self, margin: float) -> Zones:
         """The zones with a margin against the drone's position error: keep-out zones grown by
         ``margin`` (m) sideways, down and up, keep-in zones shrunk by it. A keep-in zone
-        narrower than twice the margin comes out empty (nowhere to fly)."""
+        narrower than twice the margin comes out empty (nowhere to fly).
+
+        Parameters
+        ----------
+        margin : float
+            Metres.
+
+        Returns
+        -------
+        Zones
+            New zones.
+        """
         if margin <= 0:
             return self
         out = []
@@ -209,12 +260,31 @@ class Zones:
         return out
 
     def describe(self, index: int) -> str:
+        """The label of zone ``index``.
+
+        Parameters
+        ----------
+        index : int
+            The zone's index.
+
+        Returns
+        -------
+        str
+            Its label.
+        """
         return self.zones[int(index)].label
 
     def closing_off(self, outline, low: float, high: float) -> list[str]:
         """What leaves no airspace round a target: the names of keep-out zones that together
         cover ``outline`` (shapely geometry: the target's plan grown by the reach of its
         viewpoints) from ``low`` to ``high``, or of a keep-in region that misses it.
+
+        Parameters
+        ----------
+        outline : shapely geometry
+            The target's plan grown by the reach of its viewpoints.
+        low, high : float
+            The heights photographed from, metres.
 
         Returns
         -------
