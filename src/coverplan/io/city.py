@@ -27,6 +27,16 @@ def parse_crs(text: str | None) -> tuple[str | None, str | None]:
 
     Handles 'EPSG:25832', 'urn:ogc:def:crs:EPSG::25832', OGC URLs
     '.../def/crs/EPSG/0/7415' and compound URNs 'urn:ogc:def:crs,crs:EPSG:6.12:3068,crs:EPSG:6.12:5783'.
+
+    Parameters
+    ----------
+    text : str or None
+        The file's srsName or referenceSystem.
+
+    Returns
+    -------
+    horizontal, vertical : str or None
+        ``EPSG:n`` codes.
     """
     if not text:
         return None, None
@@ -44,6 +54,16 @@ def triangulate_rings(rings: list[np.ndarray]) -> np.ndarray | None:
     Rings may repeat their first point at the end. The polygon is projected on its own
     plane (Newell normal), triangulated with earcut, and the triangles keep the exterior
     ring's orientation. Returns None for a polygon that cannot be triangulated.
+
+    Parameters
+    ----------
+    rings : list of (k, 3) float
+        The polygon's rings.
+
+    Returns
+    -------
+    (n, 3, 3) float or None
+        Triangles.
     """
     clean = []
     for ring in rings:
@@ -90,7 +110,21 @@ def triangulate_rings(rings: list[np.ndarray]) -> np.ndarray | None:
 
 @dataclass
 class CityObject:
-    """One top-level city object: id, type, name, its triangles per LoD and its attributes."""
+    """One top-level city object: id, type, name, its triangles per LoD and its attributes.
+
+    Parameters
+    ----------
+    id : str
+        The object's id in the file.
+    kind : str
+        Its CityGML / CityJSON type (Building, BuildingPart, ...).
+    name : str, optional
+        Its name.
+    by_lod : dict of int to list of (n, 3, 3) float
+        Triangles per level of detail.
+    attributes : dict
+        Its attributes.
+    """
 
     id: str
     kind: str
@@ -99,11 +133,42 @@ class CityObject:
     attributes: dict = field(default_factory=dict)  # the file's attributes of it, for --where
 
     def add(self, lod: int, triangles) -> None:
+        """Add triangles at a level of detail.
+
+        Parameters
+        ----------
+        lod : int
+            The level of detail.
+        triangles : (n, 3, 3) float
+            File coordinates.
+        """
         self.by_lod.setdefault(lod, []).append(triangles)
 
 
 def pick_lod(available: set, requested: int | None, what: str, path) -> int:
-    """The LoD to read: the requested one, else the highest available above 0."""
+    """The LoD to read: the requested one, else the highest available above 0.
+
+    Parameters
+    ----------
+    available : set of int
+        The levels the object has.
+    requested : int or None
+        The level asked for (``--lod``).
+    what : str
+        The object, for the message.
+    path : str or Path
+        The file, for the message.
+
+    Returns
+    -------
+    int
+        The level.
+
+    Raises
+    ------
+    InputFileError
+        When the requested level is missing or the object has no geometry above LoD 0.
+    """
     usable = {lod for lod in available if lod >= 1}
     if requested is not None:
         if requested < 1:
@@ -121,7 +186,21 @@ def pick_lod(available: set, requested: int | None, what: str, path) -> int:
 @dataclass
 class CityModel:
     """Every city object of one CityGML/CityJSON file, read once: pick targets, neighbours,
-    footprints from it as often as needed (``coverplan batch`` plans many buildings of it)."""
+    footprints from it as often as needed (``coverplan batch`` plans many buildings of it).
+
+    Parameters
+    ----------
+    path : Path
+        The file read.
+    objects : list of CityObject
+        Every top-level object.
+    crs : (str or None, str or None)
+        Horizontal and vertical CRS.
+    skipped : int
+        Objects without usable geometry.
+    _bounds, _ground : dict
+        Caches.
+    """
 
     path: Path
     objects: list[CityObject]
@@ -132,6 +211,7 @@ class CityModel:
 
     @property
     def with_geometry(self) -> list[CityObject]:
+        """The objects that have geometry at LoD 1 or above."""
         return [o for o in self.objects if any(k >= 1 for k in o.by_lod)]
 
     @property
@@ -140,7 +220,23 @@ class CityModel:
         return [o for o in self.with_geometry if o.kind in BUILDING_KINDS]
 
     def find(self, building: str) -> CityObject:
-        """The object whose id (or name) is ``building``; a ParameterError listing ids if none."""
+        """The object whose id (or name) is ``building``; a ParameterError listing ids if none.
+
+        Parameters
+        ----------
+        building : str
+            An id or a name.
+
+        Returns
+        -------
+        CityObject
+            The object.
+
+        Raises
+        ------
+        ParameterError
+            When no object has that id or name.
+        """
         for o in self.with_geometry:
             if building in (o.id, o.name):
                 return o
@@ -149,11 +245,35 @@ class CityModel:
             f"{', '.join(o.id for o in self.buildings[:5] or self.with_geometry[:5])}")
 
     def triangles(self, obj: CityObject, lod: int | None) -> np.ndarray:
-        """(n, 3, 3) triangles of ``obj`` at ``lod`` where it has it, else at its highest LoD."""
+        """(n, 3, 3) triangles of ``obj`` at ``lod`` where it has it, else at its highest LoD.
+
+        Parameters
+        ----------
+        obj : CityObject
+            The object.
+        lod : int or None
+            The level of detail.
+
+        Returns
+        -------
+        (n, 3, 3) float
+            File coordinates.
+        """
         return np.vstack(obj.by_lod[lod if lod in obj.by_lod else max(obj.by_lod)])
 
     def xy_bounds(self, lod: int | None) -> np.ndarray:
-        """(n, 4) [xmin, ymin, xmax, ymax] of every object with geometry, in that order."""
+        """(n, 4) [xmin, ymin, xmax, ymax] of every object with geometry, in that order.
+
+        Parameters
+        ----------
+        lod : int or None
+            The level of detail.
+
+        Returns
+        -------
+        (n, 4) float
+            File coordinates.
+        """
         if lod not in self._bounds:
             boxes = [(t := self.triangles(o, lod).reshape(-1, 3))[:, :2].min(axis=0).tolist()
                      + t[:, :2].max(axis=0).tolist() for o in self.with_geometry]
@@ -162,7 +282,22 @@ class CityModel:
 
     def ground_near(self, lo, hi, radius: float, lod: int | None) -> list[np.ndarray]:
         """Triangles of the ground objects (any LoD: a relief at LoD 0 still has heights)
-        within ``radius`` of the xy box [lo, hi]."""
+        within ``radius`` of the xy box [lo, hi].
+
+        Parameters
+        ----------
+        lo, hi : (2,) float
+            The box's corners, file coordinates.
+        radius : float
+            Metres.
+        lod : int or None
+            Unused by the ground, kept for symmetry with the buildings.
+
+        Returns
+        -------
+        list of (n, 3, 3) float
+            Triangles per ground object.
+        """
         if lod not in self._ground:  # gathered once per LoD: a batch asks for every building
             tris = [self.triangles(o, lod) for o in self.objects if o.kind in GROUND_KINDS and o.by_lod]
             boxes = [np.r_[t.reshape(-1, 3)[:, :2].min(axis=0), t.reshape(-1, 3)[:, :2].max(axis=0)] for t in tris]
@@ -171,7 +306,20 @@ class CityModel:
         return [t for t, near in zip(tris, _within(boxes, lo, hi, radius)) if near]
 
     def footprint(self, obj: CityObject, lod: int | None = None):
-        """The object's outline seen from above (a shapely polygon), in file coordinates."""
+        """The object's outline seen from above (a shapely polygon), in file coordinates.
+
+        Parameters
+        ----------
+        obj : CityObject
+            The object.
+        lod : int, optional
+            The level of detail.
+
+        Returns
+        -------
+        shapely.Polygon or shapely.MultiPolygon
+            The outline.
+        """
         import shapely
         tri = self.triangles(obj, lod)[:, :, :2]
         polygons = shapely.polygons(tri)
@@ -182,7 +330,22 @@ class CityModel:
 
     def source(self, building: str | None = None, context_radius: float | None = None,
                lod: int | None = None) -> MeshSource:
-        """The target building and, within ``context_radius`` of it, every other object as obstacle."""
+        """The target building and, within ``context_radius`` of it, every other object as obstacle.
+
+        Parameters
+        ----------
+        building : str, optional
+            An id or a name; the file's only building when None.
+        context_radius : float, optional
+            Metres; no obstacles when None.
+        lod : int, optional
+            The level of detail.
+
+        Returns
+        -------
+        MeshSource
+            The target first, then the obstacles.
+        """
         return self.neighbourhood(building, context_radius, lod).source()
 
     def neighbourhood(self, building: str | None = None, context_radius: float | None = None,
@@ -191,6 +354,20 @@ class CityModel:
 
         The target is read at ``lod`` (default: its highest LoD of 1 or more); the others at the
         same LoD where they have it, else at their highest.
+
+        Parameters
+        ----------
+        building : str, optional
+            An id or a name; the file's only building when None.
+        context_radius : float, optional
+            Metres; no neighbours when None.
+        lod : int, optional
+            The level of detail.
+
+        Returns
+        -------
+        Neighbourhood
+            Raw triangles of the building and its neighbours.
         """
         with_geometry = self.with_geometry
         if lod is not None and lod < 1:
@@ -232,7 +409,21 @@ class CityModel:
 @dataclass
 class Neighbourhood:
     """A target building (first of ``parts``) and the city objects around it, as raw triangles:
-    small to send to a batch worker, which makes the meshes."""
+    small to send to a batch worker, which makes the meshes.
+
+    Parameters
+    ----------
+    parts : list of (str, (n, 3, 3) float)
+        Name and triangles of each object, the target first.
+    notes : list of str
+        What was read.
+    crs : (str or None, str or None)
+        Horizontal and vertical CRS.
+    path : Path
+        The city file.
+    ground : (m, 3, 3) float, optional
+        Triangles of the ground objects around it.
+    """
 
     parts: list  # (id, (n, 3, 3) triangles), the target first
     notes: list[str]
@@ -241,12 +432,25 @@ class Neighbourhood:
     ground: np.ndarray | None = None  # (n, 3, 3) triangles of the ground objects around it
 
     def source(self) -> MeshSource:
+        """The meshes of the building and its neighbours, as a reader returns them.
+
+        Returns
+        -------
+        MeshSource
+            The target first, then the obstacles.
+        """
         meshes = [(oid, _mesh(tri)) for oid, tri in self.parts]
         return MeshSource(meshes=meshes, crs=self.crs[0], target_names=[self.parts[0][0]], notes=list(self.notes),
                           vertical_crs=self.crs[1], path=self.path, ground=self.ground)
 
     def digest(self) -> str:
-        """Changes when any triangle of the target or its neighbours does."""
+        """Changes when any triangle of the target or its neighbours does.
+
+        Returns
+        -------
+        str
+            16 hex digits.
+        """
         import hashlib
         h = hashlib.sha256()
         for oid, tri in self.parts + ([("ground", self.ground)] if self.ground is not None else []):

@@ -35,12 +35,43 @@ EXTENSIONS = ("gml", "citygml", "xml", "gml.gz", "citygml.gz", "xml.gz")
 @register_reader(*EXTENSIONS)
 def read_citygml(path, building: str | None = None, lod: int | None = None,
                  context_radius: float | None = None, **_ignored) -> MeshSource:
+    """Read one building of a CityGML file and its neighbours (the reader of .gml and .xml).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    building : str, optional
+        An id or a name.
+    lod : int, optional
+        The level of detail.
+    context_radius : float, optional
+        Metres around the building whose objects are obstacles.
+    **_ignored
+        Options of other readers.
+
+    Returns
+    -------
+    MeshSource
+        The target first, then the obstacles.
+    """
     return read_citygml_model(path).source(building, context_radius, lod)
 
 
 @register_city_reader(*EXTENSIONS)
 def read_citygml_model(path) -> CityModel:
-    """Every top-level city object of a CityGML file."""
+    """Every top-level city object of a CityGML file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    CityModel
+        Its objects.
+    """
     parser = etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=True, remove_comments=True)
     try:
         with open_maybe_gzip(path) as handle:

@@ -46,12 +46,43 @@ EXTENSIONS = ("city.json", "json", "city.jsonl", "jsonl", "json.gz", "jsonl.gz")
 @register_reader(*EXTENSIONS)
 def read_cityjson(path, building: str | None = None, lod: int | None = None,
                   context_radius: float | None = None, **_ignored) -> MeshSource:
+    """Read one building of a CityJSON file and its neighbours.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    building : str, optional
+        An id or a name.
+    lod : int, optional
+        The level of detail.
+    context_radius : float, optional
+        Metres around the building whose objects are obstacles.
+    **_ignored
+        Options of other readers.
+
+    Returns
+    -------
+    MeshSource
+        The target first, then the obstacles.
+    """
     return read_cityjson_model(path).source(building, context_radius, lod)
 
 
 @register_city_reader(*EXTENSIONS)
 def read_cityjson_model(path) -> CityModel:
-    """Every city object of a CityJSON / CityJSONSeq file."""
+    """Every city object of a CityJSON / CityJSONSeq file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    CityModel
+        Its objects.
+    """
     try:
         header, features = _load(path)
     except UnicodeDecodeError:

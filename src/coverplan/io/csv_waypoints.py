@@ -21,6 +21,22 @@ COLUMNS = ["index", "x_m", "y_m", "z_m", "altitude_above_ground_m", "heading_deg
 
 @register_writer("csv", ".csv")
 def write_csv(route, path, **_ignored) -> list[Path]:
+    """Write the route as coverplan's CSV: one row per waypoint (``COLUMNS``, then WGS 84 ones when georeferenced).
+
+    Parameters
+    ----------
+    route : Route
+        The route (one battery flight).
+    path : str or Path
+        The file.
+    **_ignored
+        Options of other writers.
+
+    Returns
+    -------
+    list of Path
+        The file written.
+    """
     geo_cols = None
     if geo.has_georeference(route.frame):
         from coverplan.io.geoflight import geo_flight
@@ -41,7 +57,18 @@ def write_csv(route, path, **_ignored) -> list[Path]:
 
 
 def is_waypoint_csv(path) -> bool:
-    """Whether a .csv file is this writer's (its header starts with ``COLUMNS``)."""
+    """Whether a .csv file is this writer's (its header starts with ``COLUMNS``).
+
+    Parameters
+    ----------
+    path : str or Path
+        A .csv file.
+
+    Returns
+    -------
+    bool
+        True for coverplan's CSV.
+    """
     with open(path, encoding="utf-8", errors="replace") as fh:
         return fh.readline().strip().split(",")[:len(COLUMNS)] == COLUMNS
 
@@ -49,6 +76,16 @@ def is_waypoint_csv(path) -> bool:
 def read_waypoint_csv(path):
     """coverplan's own CSV as a mission: WGS84 positions, heights above the ground under each
     waypoint, true headings, gimbal pitches and photos.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    Mission
+        The flight as flown.
 
     Raises
     ------

@@ -27,6 +27,30 @@ EXTENSIONS = ("geojson", "gpkg", "shp")
 def read_footprints(path, building: str | None = None, context_radius: float | None = None,
                     height_attribute: str | None = None, height: float | None = None,
                     roof_attribute: str | None = None, **_ignored) -> MeshSource:
+    """Read one footprint of a GeoJSON, GeoPackage or Shapefile as an extruded building, with its neighbours.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    building : str, optional
+        A feature's id or name.
+    context_radius : float, optional
+        Metres around the building whose footprints are obstacles.
+    height_attribute : str, optional
+        The attribute holding each building's height.
+    height : float, optional
+        The height of every building, metres.
+    roof_attribute : str, optional
+        The attribute holding each gable's height above the eaves.
+    **_ignored
+        Options of other readers.
+
+    Returns
+    -------
+    MeshSource
+        The target first, then the obstacles.
+    """
     model = read_footprint_model(path, height_attribute, height, roof_attribute)
     src = model.source(building, context_radius, None)
     src.stand_on_terrain = True
@@ -35,7 +59,24 @@ def read_footprints(path, building: str | None = None, context_radius: float | N
 
 def read_footprint_model(path, height_attribute: str | None = None, height: float | None = None,
                          roof_attribute: str | None = None) -> CityModel:
-    """Every footprint of the file as an extruded building (a CityModel)."""
+    """Every footprint of the file as an extruded building (a CityModel).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    height_attribute : str, optional
+        The attribute holding each building's height.
+    height : float, optional
+        The height of every building, metres.
+    roof_attribute : str, optional
+        The attribute holding each gable's height.
+
+    Returns
+    -------
+    CityModel
+        One object per footprint.
+    """
     import shapely
     path = Path(path)
     if height_attribute is None and height is None:
@@ -73,7 +114,24 @@ def read_footprint_model(path, height_attribute: str | None = None, height: floa
 def extrude(polygon, height: float, roof: float = 0.0, base: float = 0.0) -> np.ndarray:
     """Triangles (n, 3, 3) of the closed solid over ``polygon``: walls from ``base`` to the
     eaves at ``base + height``, a floor, and a flat roof or, with ``roof`` > 0, a gable whose
-    ridge runs along the long axis of the footprint's smallest enclosing rectangle."""
+    ridge runs along the long axis of the footprint's smallest enclosing rectangle.
+
+    Parameters
+    ----------
+    polygon : shapely.Polygon
+        The footprint.
+    height : float
+        Eaves above the base, metres.
+    roof : float
+        The gable's height above the eaves, metres.
+    base : float
+        The ground's height, metres.
+
+    Returns
+    -------
+    (n, 3, 3) float
+        Triangles.
+    """
     import shapely
     from shapely.geometry import LineString
     from shapely.ops import split
@@ -136,7 +194,20 @@ def _number(attrs, name, fid, path) -> float:
 
 
 def read_features(path: Path):
-    """(shapely geometries, ids, attribute dicts, CRS string or None)."""
+    """(shapely geometries, ids, attribute dicts, CRS string or None).
+
+    Parameters
+    ----------
+    path : Path
+        GeoJSON, GeoPackage or Shapefile.
+
+    Returns
+    -------
+    geometries : list of shapely geometry
+    ids : list of str
+    attributes : list of dict
+    crs : str or None
+    """
     import shapely
     if path.suffix.lower() == ".geojson":
         data = read_json(path)

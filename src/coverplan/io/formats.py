@@ -35,11 +35,34 @@ from coverplan.io.registry import (
 
 
 def mission_extensions() -> list[str]:
+    """The file extensions ``check`` and ``plan --existing`` read missions from.
+
+    Returns
+    -------
+    list of str
+        Sorted.
+    """
     return sorted(MISSION_READERS)
 
 
 def read_mission(path):
-    """Read a QGroundControl / Mission Planner / Litchi mission; errors name the file."""
+    """Read a QGroundControl / Mission Planner / Litchi mission; errors name the file.
+
+    Parameters
+    ----------
+    path : str or Path
+        A mission file.
+
+    Returns
+    -------
+    Mission
+        The flight as the app flies it.
+
+    Raises
+    ------
+    InputFileError
+        When the file is missing, of an unknown kind or malformed.
+    """
     path = Path(path)
     if not path.exists():
         raise InputFileError(path, "no such file")
@@ -77,7 +100,25 @@ def _readable(path) -> Path:
 
 
 def read_file(path, **options) -> MeshSource:
-    """Read any supported scene file; errors name the file and the problem."""
+    """Read any supported scene file; errors name the file and the problem.
+
+    Parameters
+    ----------
+    path : str or Path
+        A scene file.
+    **options
+        The reader's options (``load_scene``'s keyword arguments).
+
+    Returns
+    -------
+    MeshSource
+        Named meshes and georeferencing.
+
+    Raises
+    ------
+    InputFileError
+        When the file is missing, of an unknown kind or malformed.
+    """
     path = _readable(path)
     ext = _extension(path)
     reader = READERS.get(ext)
@@ -88,7 +129,23 @@ def read_file(path, **options) -> MeshSource:
 
 
 def read_city_model(path):
-    """Read a whole CityGML / CityJSON file once (an io.city.CityModel)."""
+    """Read a whole CityGML / CityJSON file once (an io.city.CityModel).
+
+    Parameters
+    ----------
+    path : str or Path
+        A CityGML or CityJSON file.
+
+    Returns
+    -------
+    CityModel
+        Every object.
+
+    Raises
+    ------
+    InputFileError
+        When the file is missing or not a city model.
+    """
     path = _readable(path)
     reader = CITY_READERS.get(_extension(path))
     if reader is None:
@@ -98,10 +155,31 @@ def read_city_model(path):
 
 
 def supported_extensions() -> list[str]:
+    """The file extensions scenes are read from.
+
+    Returns
+    -------
+    list of str
+        Sorted.
+    """
     return sorted(READERS)
 
 
 def writer(name: str) -> tuple[Writer, str]:
+    """The writer of an export format and its file suffix.
+
+    Parameters
+    ----------
+    name : str
+        A format's name (``writer_names``).
+
+    Returns
+    -------
+    writer : callable
+        ``writer(route, path, **options)``.
+    suffix : str
+        The files' suffix.
+    """
     try:
         return WRITERS[name]
     except KeyError:
@@ -110,6 +188,13 @@ def writer(name: str) -> tuple[Writer, str]:
 
 
 def writer_names() -> list[str]:
+    """The export formats.
+
+    Returns
+    -------
+    list of str
+        Sorted.
+    """
     return sorted(WRITERS)
 
 
@@ -117,7 +202,23 @@ GEOGRAPHIC_FORMATS = {"qgc", "wpl", "litchi", "kml", "geojson", "wpml"}  # need 
 
 
 def parse_formats(text: str | None) -> list[str]:
-    """Export format names from 'qgc,kml' (a ParameterError for unknown ones)."""
+    """Export format names from 'qgc,kml' (a ParameterError for unknown ones).
+
+    Parameters
+    ----------
+    text : str or None
+        Comma-separated names.
+
+    Returns
+    -------
+    list of str
+        The names, in the order given.
+
+    Raises
+    ------
+    ParameterError
+        Naming an unknown format and listing the known ones.
+    """
     if not text:
         return []
     names = [n.strip().lower() for n in text.split(",") if n.strip()]
@@ -144,6 +245,24 @@ def export_route(route, stem, formats, refused: list | None = None, **options) -
     more mission items than PX4 keeps) is written for no flight. With ``refused`` (a list), the
     other formats are written all the same and ``(format, reason)`` is appended to it for each
     one left out; without it, any such format raises ParameterError before a file is written.
+
+    Parameters
+    ----------
+    route : Route
+        The route.
+    stem : str or Path
+        The files' path without the suffix.
+    formats : sequence of str
+        Format names.
+    refused : list, optional
+        Collects ``(format, reason)`` of each format left out.
+    **options
+        The writers' options (``drone``, ``speed``, ``firmware``, ``wpml_heights``, ...).
+
+    Returns
+    -------
+    list of Path
+        The files written.
     """
     flights = [route] if route.n_flights <= 1 else [route.flight_route(k) for k in range(1, route.n_flights + 1)]
     fitting = []

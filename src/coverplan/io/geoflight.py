@@ -16,7 +16,27 @@ _GEOD = Geod(ellps="WGS84")
 @dataclass
 class GeoFlight:
     """Waypoints on Earth. ``alt_rel``: metres above the take-off point's ground;
-    ``alt_abs``: above sea level when the route's frame knows its height datum, else None."""
+    ``alt_abs``: above sea level when the route's frame knows its height datum, else None.
+
+    Parameters
+    ----------
+    lon, lat : (n,) float
+        WGS 84 degrees.
+    alt_rel : (n,) float
+        Metres above the take-off point's ground.
+    alt_abs : (n,) float or None
+        Metres above sea level.
+    heading_true : (n,) float
+        Degrees clockwise from true north.
+    pitch : (n,) float
+        Gimbal pitch, degrees.
+    shot : (n,) bool
+        Which waypoints take a photo.
+    leg : list of str
+        Each waypoint's leg (initial, coverage, return ...).
+    home : (float, float, float or None)
+        Take-off latitude, longitude and height above sea level.
+    """
 
     lon: np.ndarray
     lat: np.ndarray
@@ -33,11 +53,34 @@ class GeoFlight:
 
 
 def heights_are_absolute(frame: dict) -> bool:
+    """Whether a route's heights can be given above sea level (its frame knows its datum).
+
+    Parameters
+    ----------
+    frame : dict
+        The route file's ``frame``.
+
+    Returns
+    -------
+    bool
+        True with a geodetic origin or a vertical CRS.
+    """
     return bool(frame.get("geodetic_origin") or frame.get("vertical_crs"))
 
 
 def geo_flight(route) -> GeoFlight:
-    """The route's waypoints in WGS84 (raises ParameterError when it has no georeference)."""
+    """The route's waypoints in WGS84 (raises ParameterError when it has no georeference).
+
+    Parameters
+    ----------
+    route : Route
+        The route (one battery flight).
+
+    Returns
+    -------
+    GeoFlight
+        The waypoints on Earth.
+    """
     frame = route.frame
     lon, lat, h = geo.to_lonlat(frame, route.positions)
     ground = route.takeoff_z
@@ -53,7 +96,19 @@ def geo_flight(route) -> GeoFlight:
 @dataclass
 class GeoZone:
     """A zone of the route on Earth: its rings (exterior first, then holes) per polygon, as
-    (n, 2) longitude, latitude without the closing point."""
+    (n, 2) longitude, latitude without the closing point.
+
+    Parameters
+    ----------
+    name : str
+        The zone's name.
+    kind : {"keep_out", "keep_in"}
+        Its kind.
+    polygons : list of list of (n, 2) float
+        Rings per polygon.
+    floor_m, ceiling_m : float or None
+        Local z as the route records it, metres; None when open.
+    """
 
     name: str
     kind: str  # "keep-out" or "keep-in"
@@ -63,7 +118,18 @@ class GeoZone:
 
 
 def geo_zones(route) -> list[GeoZone]:
-    """The route's keep-out and keep-in zones in WGS84 (none without a georeference)."""
+    """The route's keep-out and keep-in zones in WGS84 (none without a georeference).
+
+    Parameters
+    ----------
+    route : Route
+        The route.
+
+    Returns
+    -------
+    list of GeoZone
+        The zones.
+    """
     zones = route.params.get("zones") or []
     if not zones or not geo.has_georeference(route.frame):
         return []

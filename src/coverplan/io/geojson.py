@@ -18,6 +18,22 @@ from coverplan.io.registry import register_writer
 
 @register_writer("geojson", ".geojson")
 def write_geojson(route, path, **_ignored) -> list[Path]:
+    """Write the route as GeoJSON: the path as a LineString, each waypoint as a Point, the zones as polygons.
+
+    Parameters
+    ----------
+    route : Route
+        The route (one battery flight).
+    path : str or Path
+        The file.
+    **_ignored
+        Options of other writers.
+
+    Returns
+    -------
+    list of Path
+        The file written.
+    """
     f = geo_flight(route)
     alt = f.alt_abs if f.alt_abs is not None else f.alt_rel
     coords = [[round(float(f.lon[k]), 9), round(float(f.lat[k]), 9), round(float(alt[k]), 3)] for k in range(len(f))]

@@ -37,6 +37,24 @@ def _zone_placemark(zone, rings) -> str:
 
 @register_writer("kml", ".kml")
 def write_kml(route, path, name: str | None = None, **_ignored) -> list[Path]:
+    """Write the route as KML: the path and a placemark per photo.
+
+    Parameters
+    ----------
+    route : Route
+        The route (one battery flight).
+    path : str or Path
+        The file.
+    name : str, optional
+        The document's name; the file's stem when None.
+    **_ignored
+        Options of other writers.
+
+    Returns
+    -------
+    list of Path
+        The file written.
+    """
     f = geo_flight(route)
     absolute = f.alt_abs is not None
     mode = "absolute" if absolute else "relativeToGround"

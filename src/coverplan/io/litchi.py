@@ -30,7 +30,18 @@ HEADER = (["latitude", "longitude", "altitude(m)", "heading(deg)", "curvesize(m)
 
 def litchi_waypoints(route) -> list[dict]:
     """Waypoints with their actions; consecutive ones closer than 0.5 m are merged, and those
-    without a photo where the path runs straight on (turn points) left out."""
+    without a photo where the path runs straight on (turn points) left out.
+
+    Parameters
+    ----------
+    route : Route
+        The route (one battery flight).
+
+    Returns
+    -------
+    list of dict
+        Position, heights, heading, pitch and actions per waypoint.
+    """
     f = geo_flight(route)
     local = route.positions
     straight = route.straight_points()  # Litchi stops at every waypoint: none where the path runs on
@@ -54,6 +65,24 @@ def litchi_waypoints(route) -> list[dict]:
 
 @register_writer("litchi", ".litchi.csv")
 def write_litchi(route, path, speed: float = 5.0, **_ignored) -> list[Path]:
+    """Write the route as Litchi waypoint CSV, split into missions of at most 99 waypoints.
+
+    Parameters
+    ----------
+    route : Route
+        The route (one battery flight).
+    path : str or Path
+        The first file; later ones are NAME.litchi.2.csv and so on.
+    speed : float
+        Cruise speed, m/s.
+    **_ignored
+        Options of other writers.
+
+    Returns
+    -------
+    list of Path
+        The files written.
+    """
     waypoints = litchi_waypoints(route)
     path = Path(path)
     written = []
@@ -106,6 +135,16 @@ def read_litchi(path):
     Altitudes: altitudemode 0 is above the take-off point, 1 above the ground below the
     waypoint, which on a flat site is the same; actions rotate the aircraft, tilt the gimbal
     and take photos in order, the waypoint's own heading and gimbal pitch apply otherwise.
+
+    Parameters
+    ----------
+    path : str or Path
+        The first file.
+
+    Returns
+    -------
+    Mission
+        The flight as Litchi flies it.
     """
 
     path = Path(path)

@@ -211,6 +211,18 @@ CITY_TERRAIN_STEP_M = 1.0  # grid of a city model's ground surfaces
 def scene_from_record(record: dict, route_path):
     """Load the scene a route records, its paths taken relative to the route's folder.
 
+    Parameters
+    ----------
+    record : dict
+        The route file's ``scene`` record.
+    route_path : str or Path
+        The route file.
+
+    Returns
+    -------
+    Scene
+        The scene.
+
     Raises
     ------
     InputFileError
@@ -289,7 +301,20 @@ def _load_terrain(scene: Scene, path, ground_tri: list, factor: float) -> tuple[
 
 
 def unit_warnings(scene: Scene, units: str) -> list[str]:
-    """Warn when the target's size suggests the units are wrong (a 20 km tall building...)."""
+    """Warn when the target's size suggests the units are wrong (a 20 km tall building...).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    units : str
+        The units the files were read in.
+
+    Returns
+    -------
+    list of str
+        Warnings; empty when the size is plausible.
+    """
     size = np.ptp(scene.bounds("target"), axis=0)
     height, width = float(size[2]), float(size[:2].max())
     biggest = max(height, width)

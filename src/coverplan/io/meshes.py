@@ -17,6 +17,22 @@ _Y_UP_TO_Z_UP = np.array([[1.0, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0,
 
 @register_reader("obj", "ply", "stl", "off", "glb", "gltf")
 def read_mesh(path, up_axis: str | None = None, **_ignored) -> MeshSource:
+    """Read an OBJ, PLY, STL, OFF, GLB or glTF file: one mesh per body or named object.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    up_axis : {"y", "z"}, optional
+        The file's up axis; from the format's convention when None.
+    **_ignored
+        Options of other readers.
+
+    Returns
+    -------
+    MeshSource
+        Named meshes.
+    """
     ext = path.suffix.lower().lstrip(".")
     _check_signature(path, ext)
     try:

@@ -46,7 +46,20 @@ NAN = float("nan")
 
 
 def mission_items(route, speed: float = 5.0) -> list[tuple[int, int, list[float]]]:
-    """(command, frame, 7 params) for the whole flight, take-off to return."""
+    """(command, frame, 7 params) for the whole flight, take-off to return.
+
+    Parameters
+    ----------
+    route : Route
+        The route (one battery flight).
+    speed : float
+        Cruise speed, m/s.
+
+    Returns
+    -------
+    list of (int, int, list of float)
+        MAVLink command, frame and params.
+    """
     f = geo_flight(route)
     items = [(NAV_TAKEOFF, FRAME_GLOBAL_RELATIVE_ALT, [0.0, 0.0, 0.0, NAN, f.lat[0], f.lon[0], f.alt_rel[0]])]
     through = route.flies_through
@@ -80,7 +93,24 @@ def _json_param(v):
 
 
 def px4_fit(route, firmware: str = "px4", speed: float = 5.0, **_ignored) -> str | None:
-    """Why a flight's plan does not fit PX4's mission store (None: it fits, or not for PX4)."""
+    """Why a flight's plan does not fit PX4's mission store (None: it fits, or not for PX4).
+
+    Parameters
+    ----------
+    route : Route
+        One battery flight.
+    firmware : {"px4", "ardupilot"}
+        The autopilot.
+    speed : float
+        Cruise speed, m/s.
+    **_ignored
+        Options of other writers.
+
+    Returns
+    -------
+    str or None
+        The reason.
+    """
     if firmware != "px4":
         return None
     items = len(mission_items(route, speed))
@@ -93,6 +123,26 @@ def px4_fit(route, firmware: str = "px4", speed: float = 5.0, **_ignored) -> str
 
 @register_writer("qgc", ".plan", check=px4_fit)
 def write_plan(route, path, firmware: str = "px4", speed: float = 5.0, **_ignored) -> list[Path]:
+    """Write the route as a QGroundControl ``.plan``: simple mission items, its zones as geofences.
+
+    Parameters
+    ----------
+    route : Route
+        The route (one battery flight).
+    path : str or Path
+        The file.
+    firmware : {"px4", "ardupilot"}
+        The autopilot the plan is for.
+    speed : float
+        Cruise speed, m/s.
+    **_ignored
+        Options of other writers.
+
+    Returns
+    -------
+    list of Path
+        The file written.
+    """
     f = geo_flight(route)
     items = []
     for n, (command, frame, params) in enumerate(mission_items(route, speed), start=1):
@@ -124,6 +174,16 @@ def fence_polygons(route) -> list[dict]:
     A fence is a plan-view polygon from the ground up. A keep-out zone becomes its outline
     (airspace over or under it and inside its holes is fenced off too: stricter than the zone);
     a keep-in zone its outline as inclusion and its holes as exclusions.
+
+    Parameters
+    ----------
+    route : Route
+        The route.
+
+    Returns
+    -------
+    list of dict
+        QGroundControl ``geoFence.polygons`` entries.
     """
     out = []
     for zone in geo_zones(route):
@@ -138,6 +198,24 @@ def fence_polygons(route) -> list[dict]:
 
 @register_writer("wpl", ".waypoints")
 def write_wpl(route, path, speed: float = 5.0, **_ignored) -> list[Path]:
+    """Write the route as a ``QGC WPL 110`` text mission (Mission Planner, QGroundControl).
+
+    Parameters
+    ----------
+    route : Route
+        The route (one battery flight).
+    path : str or Path
+        The file.
+    speed : float
+        Cruise speed, m/s.
+    **_ignored
+        Options of other writers.
+
+    Returns
+    -------
+    list of Path
+        The file written.
+    """
     f = geo_flight(route)
     home_alt = f.home[2] if f.home[2] is not None else 0.0
     rows = ["QGC WPL 110", _wpl_row(0, 1, FRAME_GLOBAL, NAV_WAYPOINT, [0, 0, 0, 0, f.home[1], f.home[0], home_alt])]
@@ -172,6 +250,22 @@ def walk_items(items, home, path, source: str):
     waypoint's yaw or CONDITION_YAW) and gimbal pitch (gimbal manager or mount control).
     A distance trigger (DO_SET_CAM_TRIGG_DIST) takes a photo every so many metres along the
     legs after it, until it is set to 0.
+
+    Parameters
+    ----------
+    items : list of (int, int, list of float)
+        Command, frame and params.
+    home : (float, float)
+        Latitude and longitude.
+    path : str or Path
+        The mission file, for errors.
+    source : str
+        What the mission is, for notes.
+
+    Returns
+    -------
+    Mission
+        The flight.
     """
 
     b = MissionBuilder(path, source)
@@ -223,7 +317,18 @@ def walk_items(items, home, path, source: str):
 @register_mission_reader("plan")
 def read_plan(path):
     """A QGroundControl ``.plan`` mission: simple items, and Structure Scans expanded as
-    QGroundControl flies them (io/qgc_complex.py)."""
+    QGroundControl flies them (io/qgc_complex.py).
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.plan`` file.
+
+    Returns
+    -------
+    Mission
+        The flight.
+    """
 
     data = read_json(path)
     mission = data.get("mission") if isinstance(data, dict) else None
@@ -246,7 +351,18 @@ def read_plan(path):
 
 @register_mission_reader("waypoints", "txt")
 def read_wpl(path):
-    """A ``QGC WPL 110`` text mission (QGroundControl, Mission Planner); row 0 is home."""
+    """A ``QGC WPL 110`` text mission (QGroundControl, Mission Planner); row 0 is home.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    Mission
+        The flight.
+    """
 
     lines = [ln for ln in Path(path).read_text(encoding="utf-8").splitlines() if ln.strip()]
     if not lines or not lines[0].startswith("QGC WPL"):

@@ -44,7 +44,27 @@ NAN = float("nan")
 
 
 def expand_complex_item(item: dict, n: int, path) -> list[tuple[int, int, list[float]]]:
-    """The MAVLink items QGroundControl flies for complex item ``n`` of a ``.plan``."""
+    """The MAVLink items QGroundControl flies for complex item ``n`` of a ``.plan``.
+
+    Parameters
+    ----------
+    item : dict
+        The complex item.
+    n : int
+        Its index in the plan, for errors.
+    path : str or Path
+        The plan, for errors.
+
+    Returns
+    -------
+    list of (int, int, list of float)
+        Command, frame and params.
+
+    Raises
+    ------
+    InputFileError
+        For a complex item of another kind, or one whose settings do not hold.
+    """
     kind = item.get("complexItemType", "complex")
     if kind in TRANSECT_STYLE:
         return transect_items(item, n, path)
@@ -57,7 +77,22 @@ def expand_complex_item(item: dict, n: int, path) -> list[tuple[int, int, list[f
 
 def transect_items(item: dict, n: int, path) -> list[tuple[int, int, list[float]]]:
     """A Survey or Corridor Scan item as the mission items QGroundControl generated and saved
-    with it; the camera straight down unless they set a gimbal pitch."""
+    with it; the camera straight down unless they set a gimbal pitch.
+
+    Parameters
+    ----------
+    item : dict
+        The complex item.
+    n : int
+        Its index in the plan.
+    path : str or Path
+        The plan.
+
+    Returns
+    -------
+    list of (int, int, list of float)
+        Command, frame and params.
+    """
     name = TRANSECT_STYLE[item["complexItemType"]]
     inner = item.get("TransectStyleComplexItem")
     saved = inner.get("Items") if isinstance(inner, dict) else None
@@ -76,7 +111,22 @@ def transect_items(item: dict, n: int, path) -> list[tuple[int, int, list[float]
 
 
 def structure_scan_items(item: dict, n: int, path) -> list[tuple[int, int, list[float]]]:
-    """A Structure Scan item as the waypoints, gimbal pitches and photos QGroundControl flies."""
+    """A Structure Scan item as the waypoints, gimbal pitches and photos QGroundControl flies.
+
+    Parameters
+    ----------
+    item : dict
+        The complex item.
+    n : int
+        Its index in the plan.
+    path : str or Path
+        The plan.
+
+    Returns
+    -------
+    list of (int, int, list of float)
+        Command, frame and params.
+    """
     scan = StructureScanSpec.from_item(item, n, path)
     lat0, lon0 = scan.polygon_latlon[0]
     frame = {"geodetic_origin": [lat0, lon0, 0.0]}  # a tangent plane at the first vertex, as QGC's NED
@@ -96,7 +146,29 @@ def structure_scan_items(item: dict, n: int, path) -> list[tuple[int, int, list[
 
 
 class StructureScanSpec:
-    """The settings of one Structure Scan item, checked."""
+    """The settings of one Structure Scan item, checked.
+
+    Parameters
+    ----------
+    polygon_latlon : (k, 2) float
+        The structure's outline, degrees.
+    distance : float
+        Scan distance from the structure, metres.
+    frontal : float
+        The photo's height on the structure, metres (layer spacing).
+    side : float
+        The trigger distance along a layer, metres.
+    bottom, height : float
+        The scanned band's lowest and highest altitude above home, metres.
+    layers : int
+        The number of layers.
+    entrance_alt : float
+        The altitude of the entrance and exit, metres.
+    gimbal_pitch : float
+        Degrees.
+    from_top : bool
+        Fly the highest layer first.
+    """
 
     def __init__(self, polygon_latlon, distance, frontal, side, bottom, height, layers, entrance_alt,
                  gimbal_pitch, from_top):
@@ -107,6 +179,27 @@ class StructureScanSpec:
 
     @classmethod
     def from_item(cls, item: dict, n: int, path) -> StructureScanSpec:
+        """Read and check a Structure Scan item's settings.
+
+        Parameters
+        ----------
+        item : dict
+            The complex item.
+        n : int
+            Its index in the plan.
+        path : str or Path
+            The plan.
+
+        Returns
+        -------
+        StructureScanSpec
+            The settings.
+
+        Raises
+        ------
+        InputFileError
+            Naming the setting that is missing or out of range.
+        """
         def number(obj, key, where="Structure Scan"):
             try:
                 value = float(obj[key])
@@ -136,7 +229,13 @@ class StructureScanSpec:
                    float(item.get("GimbalPitch") or 0.0), bool(item.get("StartFromTop")))
 
     def layer_altitudes(self) -> np.ndarray:
-        """Each layer's altitude above home, in the order flown."""
+        """Each layer's altitude above home, in the order flown.
+
+        Returns
+        -------
+        (layers,) float
+            Metres.
+        """
         steps = self.frontal * (np.arange(self.layers) + 0.5)
         return self.height - steps if self.from_top else self.bottom + steps
 
@@ -172,7 +271,20 @@ def layer_stops(loop: np.ndarray, trigger: float):
     """(point, heading, photo) along the closed ``loop`` ((m, 2), first point repeated last):
     its vertices and the points every ``trigger`` m of path where the camera fires, the
     first at the start. Heading: 90 deg right of the way the drone flies (degrees from grid
-    north, clockwise); at the last vertex the last edge's."""
+    north, clockwise); at the last vertex the last edge's.
+
+    Parameters
+    ----------
+    loop : (m, 2) float
+        The closed loop, metres.
+    trigger : float
+        Metres of path between photos.
+
+    Returns
+    -------
+    list of ((2,) float, float, bool)
+        Point, heading and whether a photo is taken.
+    """
     seg = np.diff(loop, axis=0)
     length = np.linalg.norm(seg, axis=1)
     along = np.concatenate([[0.0], np.cumsum(length)])

@@ -18,7 +18,27 @@ import trimesh
 
 @dataclass
 class MeshSource:
-    """What a reader found in one file: named meshes and optional georeferencing."""
+    """What a reader found in one file: named meshes and optional georeferencing.
+
+    Parameters
+    ----------
+    meshes : list of (str, trimesh.Trimesh)
+        Named meshes.
+    crs : str, optional
+        Their coordinates' CRS.
+    target_names : list of str, optional
+        The names that are targets; every mesh when None.
+    notes : list of str
+        What the reader did.
+    vertical_crs : str, optional
+        The heights' datum.
+    path : Path, optional
+        The file read.
+    ground : (n, 3, 3) float, optional
+        Ground triangles read with the file.
+    stand_on_terrain : bool
+        Place the meshes on the terrain (footprints without heights).
+    """
 
     meshes: list[tuple[str, trimesh.Trimesh]]
     crs: str | None = None
@@ -53,13 +73,40 @@ def _by_extension(table: dict, extensions) -> Callable:
 
 
 def register_reader(*extensions: str):
+    """Enter a scene reader for files ending in ``extensions``.
+
+    Parameters
+    ----------
+    *extensions : str
+        Extensions without the dot.
+
+    Returns
+    -------
+    callable
+        A decorator.
+    """
     return _by_extension(READERS, extensions)
 
 
 def register_writer(name: str, suffix: str, check: WriterCheck | None = None):
     """Enter a writer of format ``name`` (files end in ``suffix``). ``check(flight, **options)``
     says why one flight does not fit the app or autopilot the format is for (None: it fits);
-    ``export_route`` asks it of every flight before it writes the format."""
+    ``export_route`` asks it of every flight before it writes the format.
+
+    Parameters
+    ----------
+    name : str
+        The format's name.
+    suffix : str
+        Its files' suffix.
+    check : callable, optional
+        ``check(flight, **options)``.
+
+    Returns
+    -------
+    callable
+        A decorator.
+    """
     def wrap(func: Writer) -> Writer:
         WRITERS[name] = (func, suffix)
         if check is not None:
@@ -69,15 +116,48 @@ def register_writer(name: str, suffix: str, check: WriterCheck | None = None):
 
 
 def register_city_reader(*extensions: str):
-    """Readers of whole city models (CityGML, CityJSON): path -> io.city.CityModel."""
+    """Readers of whole city models (CityGML, CityJSON): path -> io.city.CityModel.
+
+    Parameters
+    ----------
+    *extensions : str
+        Extensions without the dot.
+
+    Returns
+    -------
+    callable
+        A decorator.
+    """
     return _by_extension(CITY_READERS, extensions)
 
 
 def register_mission_reader(*extensions: str):
-    """Readers of flight-app missions (flight/missions.py): path -> Mission."""
+    """Readers of flight-app missions (flight/missions.py): path -> Mission.
+
+    Parameters
+    ----------
+    *extensions : str
+        Extensions without the dot.
+
+    Returns
+    -------
+    callable
+        A decorator.
+    """
     return _by_extension(MISSION_READERS, extensions)
 
 
 def register_zone_reader(*extensions: str):
-    """Readers of keep-out / keep-in zones (io/zones.py): (path, kind, scene) -> list of Zone."""
+    """Readers of keep-out / keep-in zones (io/zones.py): (path, kind, scene) -> list of Zone.
+
+    Parameters
+    ----------
+    *extensions : str
+        Extensions without the dot.
+
+    Returns
+    -------
+    callable
+        A decorator.
+    """
     return _by_extension(ZONE_READERS, extensions)

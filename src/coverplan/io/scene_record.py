@@ -22,7 +22,18 @@ OPTIONS = ("units", "ground", "target_names", "up_axis", "building", "lod", "con
 
 def file_hash(path) -> str:
     """SHA-256 of a file's bytes, hex (a file unchanged since it was last hashed is not read again:
-    a route's scene is checked against its record, then recorded again as it loads)."""
+    a route's scene is checked against its record, then recorded again as it loads).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    str
+        64 hex digits.
+    """
     path = Path(path).resolve()
     stat = path.stat()
     return _hash(str(path), stat.st_size, stat.st_mtime_ns)
@@ -41,6 +52,13 @@ def scene_record(files: dict, options: dict) -> dict | None:
     """The record of a scene read from ``files`` (name in ``FILE_LISTS`` -> paths, "terrain" -> a
     path or None) with ``options`` (``load_scene``'s keyword arguments); None when a target was
     not a file (a city file read once by ``batch``).
+
+    Parameters
+    ----------
+    files : dict
+        ``FILE_LISTS`` names to paths, and ``terrain``.
+    options : dict
+        ``load_scene``'s keyword arguments.
 
     Returns
     -------

@@ -70,7 +70,18 @@ def _text(v) -> str:
 
 
 def signed_heading(deg) -> np.ndarray:
-    """Degrees clockwise from north in [-180, 180), as WPML wants them."""
+    """Degrees clockwise from north in [-180, 180), as WPML wants them.
+
+    Parameters
+    ----------
+    deg : array_like of float
+        Degrees clockwise from north.
+
+    Returns
+    -------
+    ndarray of float
+        Degrees in [-180, 180).
+    """
     return heading_change_deg(0.0, deg)
 
 
@@ -269,7 +280,24 @@ def _document(route, f, profile, heights, modes, speed: float, executed: bool) -
 
 
 def wpml_files(route, drone=None, speed: float | None = None, heights: str = "relative") -> dict[str, bytes]:
-    """The two XML files of the mission, by their path inside the .kmz."""
+    """The two XML files of the mission, by their path inside the .kmz.
+
+    Parameters
+    ----------
+    route : Route
+        The route (one battery flight).
+    drone : DroneProfile or str, optional
+        The drone; the route's when None.
+    speed : float, optional
+        Cruise speed, m/s.
+    heights : {"relative", "egm96"}
+        How heights are written.
+
+    Returns
+    -------
+    dict of str to bytes
+        ``template.kml`` and ``waylines.wpml``.
+    """
     profile = _drone_for(route, drone)
     speed = float(speed if speed is not None else profile.cruise_speed)
     if not 0 < speed <= min(profile.max_speed, 15.0):
@@ -283,7 +311,20 @@ def wpml_files(route, drone=None, speed: float | None = None, heights: str = "re
 
 def waypoint_fit(route, **_ignored) -> str | None:
     """Why a flight does not fit one WPML file (None: it fits): DJI numbers its waypoints
-    0..65535 (wpml:index)."""
+    0..65535 (wpml:index).
+
+    Parameters
+    ----------
+    route : Route
+        One battery flight.
+    **_ignored
+        Options of other writers.
+
+    Returns
+    -------
+    str or None
+        The reason.
+    """
     if len(route) <= WPML_WAYPOINTS:
         return None
     return (f"{len(route)} waypoints, but wpml missions take at most {WPML_WAYPOINTS}; plan shorter flights "
@@ -293,6 +334,28 @@ def waypoint_fit(route, **_ignored) -> str | None:
 @register_writer("wpml", ".kmz", check=waypoint_fit)
 def write_wpml(route, path, drone=None, speed: float | None = None, wpml_heights: str = "relative",
                **_ignored) -> list[Path]:
+    """Write the route as a DJI WPML ``.kmz`` for DJI Pilot 2 and FlightHub 2.
+
+    Parameters
+    ----------
+    route : Route
+        The route (one battery flight).
+    path : str or Path
+        The file.
+    drone : DroneProfile or str, optional
+        The drone; the route's when None.
+    speed : float, optional
+        Cruise speed, m/s.
+    wpml_heights : {"relative", "egm96"}
+        How heights are written.
+    **_ignored
+        Options of other writers.
+
+    Returns
+    -------
+    list of Path
+        The file written.
+    """
     files = wpml_files(route, drone, speed, wpml_heights)
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w", compression=zipfile.ZIP_DEFLATED) as kmz:
@@ -315,7 +378,18 @@ def read_wpml(path):
     fires between its first and last waypoint, the time interval turned into metres at the
     leg's speed. Waypoints flown through (toPointAndPassWithContinuityCurvature) keep their
     turn damping distance, so that the evaluator judges the corners they cut and the photos
-    where the aircraft passes."""
+    where the aircraft passes.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.kmz``.
+
+    Returns
+    -------
+    Mission
+        The flight.
+    """
     try:
         with zipfile.ZipFile(path) as kmz:
             data = kmz.read("wpmz/waylines.wpml")

@@ -71,7 +71,20 @@ def read_zone_file(path, kind: str, scene) -> list[Zone]:
 
 
 def read_zones(keep_out=(), keep_in=(), scene=None) -> Zones:
-    """Every zone of the ``keep_out`` and ``keep_in`` files (paths), in ``scene``'s frame."""
+    """Every zone of the ``keep_out`` and ``keep_in`` files (paths), in ``scene``'s frame.
+
+    Parameters
+    ----------
+    keep_out, keep_in : sequence of str or Path
+        Zone files.
+    scene : Scene, optional
+        Gives the frame; the files' own coordinates when None.
+
+    Returns
+    -------
+    Zones
+        Every zone read.
+    """
     zones = []
     for kind, paths in ((KEEP_OUT, keep_out), (KEEP_IN, keep_in)):
         for path in ([paths] if isinstance(paths, (str, Path)) else paths or ()):
