@@ -33,7 +33,22 @@ RUN_ITEMS = 4  # take-off, return, the first photo's gimbal command and its phot
 
 
 def transit_headings(positions, is_shot, heading) -> np.ndarray:
-    """Headings with transit points facing the way they fly (straight up or down: the last heading)."""
+    """Headings with transit points facing the way they fly (straight up or down: the last heading).
+
+    Parameters
+    ----------
+    positions : (n, 3) float
+        Waypoints.
+    is_shot : (n,) bool
+        Which take a photo.
+    heading : (n,) float
+        Degrees.
+
+    Returns
+    -------
+    (n,) float
+        Degrees.
+    """
     pos = np.asarray(positions, dtype=float)
     out = np.array(heading, dtype=float)
     n = len(pos)
@@ -56,17 +71,39 @@ class MissionItems:
     after the start, turn points between photos included (flight/turning.py), a speed change
     before each when the route is flown ``through``, one photo command per photo and a gimbal
     command where the pitch changes (the first photo's always). Each term is counted where it
-    may occur, so the count is an upper bound of what the writer writes."""
+    may occur, so the count is an upper bound of what the writer writes.
+
+    Parameters
+    ----------
+    limit : int
+        Mission items allowed per flight.
+    through : bool
+        The route is flown through (a speed change before each waypoint).
+    """
 
     limit: int
     through: bool = True
 
     @property
     def per_waypoint(self) -> int:
+        """Items per waypoint: the waypoint command, and a speed change when flown through."""
         return 2 if self.through else 1
 
     def bound(self, waypoints, stops: Stops) -> int:
-        """The most items one flight ([(position, special or -1), ...], a photo or more) can come to."""
+        """The most items one flight ([(position, special or -1), ...], a photo or more) can come to.
+
+        Parameters
+        ----------
+        waypoints : list of ((3,) float, int)
+            The flight's waypoints and special indices.
+        stops : Stops
+            The specials' orientations.
+
+        Returns
+        -------
+        int
+            Mission items.
+        """
         special = np.array([s for _, s in waypoints])
         rows = np.flatnonzero(special > 0)
         shots = special[rows]
@@ -77,7 +114,22 @@ class MissionItems:
         """Items a step from photo ``a`` to photo ``b`` (special indices) may add beyond its
         waypoints: ``b``'s photo command, two turn points where the legs join the photos
         directly and the camera turns (``add_turn_points``), a gimbal command where the pitch
-        changes."""
+        changes.
+
+        Parameters
+        ----------
+        stops : Stops
+            The specials' orientations.
+        a, b : (k,) int
+            Special indices.
+        direct : (k,) bool
+            Whether the leg joins the two photos directly.
+
+        Returns
+        -------
+        (k,) int
+            Mission items.
+        """
         turning = np.asarray(direct, bool) & self.through & camera_turns(stops.heading[a], stops.pitch[a],
                                                                          stops.heading[b], stops.pitch[b])
         return 1 + 2 * self.per_waypoint * turning + (stops.pitch[b] != stops.pitch[a])
@@ -85,7 +137,15 @@ class MissionItems:
 
 @dataclass
 class Stops:
-    """What the split needs to know of the specials (start 0, shots 1..n)."""
+    """What the split needs to know of the specials (start 0, shots 1..n).
+
+    Parameters
+    ----------
+    heading, pitch : (n + 1,) float
+        Degrees per special.
+    height_m : float
+        The start's height above the ground.
+    """
 
     heading: np.ndarray  # per special; start's entry unused
     pitch: np.ndarray
@@ -93,7 +153,22 @@ class Stops:
 
 
 def waypoint_times(model: FlightModel, waypoints, stops: Stops) -> dict:
-    """The model's time of one flight given as [(position, special or -1), ...]."""
+    """The model's time of one flight given as [(position, special or -1), ...].
+
+    Parameters
+    ----------
+    model : FlightModel
+        The time model.
+    waypoints : list of ((3,) float, int)
+        Position and special index (-1 for transit points).
+    stops : Stops
+        The specials' orientations.
+
+    Returns
+    -------
+    dict
+        ``FlightModel.flight_seconds``'s parts.
+    """
     pos = np.array([p for p, _ in waypoints])
     special = np.array([s for _, s in waypoints])
     shot = special > 0
@@ -108,7 +183,22 @@ def waypoint_times(model: FlightModel, waypoints, stops: Stops) -> dict:
 def flight_table(route, model: FlightModel, limit_min: float | None = None) -> list[dict]:
     """Per flight of ``route``: minutes by ``model`` stopping at every waypoint where the path
     turns or a photo is taken (and their parts), shots, path length, and the share of the flight
-    limit it uses."""
+    limit it uses.
+
+    Parameters
+    ----------
+    route : Route
+        The route.
+    model : FlightModel
+        The time model.
+    limit_min : float, optional
+        The flight limit, minutes.
+
+    Returns
+    -------
+    list of dict
+        One row per battery flight.
+    """
     ground = route.takeoff_z
     corner = ~route.straight_points()  # no stop where the path runs straight on
     rows = []
@@ -199,7 +289,38 @@ def split_flights(fg, order, tour, fly, model: FlightModel, stops: Stops, max_se
     the tour ``order`` once, each within ``max_seconds`` by ``model`` (``inf``: no time limit)
     and, given ``items``, within its mission items. ``tour(nodes)`` orders a flight's nodes
     (the start first) as the planner orders the whole tour; a flight keeps that order where it
-    is quicker than the cut."""
+    is quicker than the cut.
+
+    Parameters
+    ----------
+    fg : FlightGraph
+        The flight graph.
+    order : (n + 1,) int
+        Special indices of the whole tour, the start first.
+    tour : callable
+        Orders a flight's special indices.
+    fly : callable
+        The flown waypoint list of an ordered list of specials.
+    model : FlightModel
+        The time model.
+    stops : Stops
+        The specials' orientations.
+    max_seconds : float
+        The longest flight.
+    clearance : ClearanceModel
+        Checks the legs from and to the start.
+    radius : float
+        The clearance the legs keep, metres.
+    floor : callable, optional
+        ``floor(starts, ends)``: whether segments keep the minimum altitude.
+    items : MissionItems, optional
+        The mission-item limit.
+
+    Returns
+    -------
+    list of list
+        Each flight's waypoints.
+    """
     order = np.asarray(order)
     n_special = len(order)
     single = fly(order)

@@ -25,7 +25,18 @@ REVERSAL_TOLERANCE_DEG = 1.0
 
 def smooth_step(heading_a, pitch_a, heading_b, pitch_b) -> np.ndarray:
     """Whether a step from orientation a to b is smooth (heading within 10 deg across north,
-    gimbal pitch within 5 deg); arrays broadcast."""
+    gimbal pitch within 5 deg); arrays broadcast.
+
+    Parameters
+    ----------
+    heading_a, pitch_a, heading_b, pitch_b : array_like of float
+        Degrees.
+
+    Returns
+    -------
+    ndarray of bool
+        Smooth steps.
+    """
     turn = np.abs(heading_change_deg(heading_a, heading_b))
     tilt = np.abs(np.asarray(pitch_b, float) - np.asarray(pitch_a, float))
     return (turn <= SMOOTH_HEADING_DEG) & (tilt <= SMOOTH_PITCH_DEG)
@@ -62,7 +73,20 @@ def step_shape(positions, heading_deg, pitch_deg) -> tuple[float, float]:
 
 
 def route_step_shape(route) -> tuple[float, float]:
-    """``step_shape`` of a Route's photos in flight order (waypoints without a photo skipped)."""
+    """``step_shape`` of a Route's photos in flight order (waypoints without a photo skipped).
+
+    Parameters
+    ----------
+    route : Route
+        The route.
+
+    Returns
+    -------
+    smooth_pct : float
+        Smooth steps, percent.
+    reversals_per_100 : float
+        Reversals per 100 photos.
+    """
     rows = route.shots
     return step_shape(route.positions[rows], route.heading_deg[rows], route.pitch_deg[rows])
 

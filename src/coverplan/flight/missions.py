@@ -28,7 +28,18 @@ WGS84_A, WGS84_E2 = 6_378_137.0, 6.694379990141e-3  # semi-major axis (m), first
 
 
 def mission_number(v) -> float:
-    """A mission file's number (a JSON value or XML text); NaN where it is missing or not one."""
+    """A mission file's number (a JSON value or XML text); NaN where it is missing or not one.
+
+    Parameters
+    ----------
+    v : object
+        A JSON value or XML text.
+
+    Returns
+    -------
+    float
+        The number or NaN.
+    """
     try:
         return float("nan") if v is None else float(v)
     except (TypeError, ValueError):
@@ -37,7 +48,33 @@ def mission_number(v) -> float:
 
 @dataclass
 class Mission:
-    """Waypoints as a flight app stores them. NaN heading/pitch: the file does not say."""
+    """Waypoints as a flight app stores them. NaN heading/pitch: the file does not say.
+
+    Parameters
+    ----------
+    lat, lon : (n,) float
+        WGS 84 degrees.
+    alt : (n,) float
+        Metres.
+    alt_ref : (n,) str
+        TAKEOFF, GROUND or AMSL: what each altitude is above.
+    heading_true : (n,) float
+        Degrees clockwise from true north.
+    pitch : (n,) float
+        Gimbal pitch, degrees.
+    shot : (n,) bool
+        Which take a photo.
+    source : str
+        What the file is.
+    home : (float, float), optional
+        Latitude and longitude of the take-off point.
+    notes : list of str
+        What the reader did.
+    pass_speed : (n,) float, optional
+        m/s where the app flies through a waypoint, else 0.
+    turn_damping : (n,) float, optional
+        Metres before such a waypoint that its turn starts.
+    """
 
     lat: np.ndarray
     lon: np.ndarray
@@ -57,7 +94,15 @@ class Mission:
 
 
 class MissionBuilder:
-    """Collects waypoints and photos while a reader walks a mission's items in order."""
+    """Collects waypoints and photos while a reader walks a mission's items in order.
+
+    Parameters
+    ----------
+    path : str or Path
+        The mission file, for errors.
+    source : str
+        What the file is.
+    """
 
     def __init__(self, path, source: str):
         self.path, self.source = Path(path), source
@@ -68,6 +113,24 @@ class MissionBuilder:
         self.notes: list[str] = []
 
     def waypoint(self, lat, lon, alt, ref: str, heading=np.nan) -> None:
+        """Append a waypoint, with the gimbal pitch set so far.
+
+        Parameters
+        ----------
+        lat, lon : float
+            WGS 84 degrees.
+        alt : float
+            Metres.
+        ref : str
+            TAKEOFF, GROUND or AMSL.
+        heading : float
+            Degrees from true north; NaN keeps the last heading set.
+
+        Raises
+        ------
+        InputFileError
+            When a coordinate is missing or the point is not on Earth.
+        """
         for name, v in (("latitude", lat), ("longitude", lon), ("altitude", alt)):
             if v is None or not np.isfinite(float(v)):
                 raise InputFileError(self.path, f"waypoint {len(self.rows) + 1} has no {name}")
@@ -79,7 +142,15 @@ class MissionBuilder:
         self.rows.append([float(lat), float(lon), float(alt), ref, self.heading, self.pitch, False])
 
     def flown_through(self, damping_m: float, speed: float) -> None:
-        """The last waypoint is flown through, its turn starting ``damping_m`` before it."""
+        """The last waypoint is flown through, its turn starting ``damping_m`` before it.
+
+        Parameters
+        ----------
+        damping_m : float
+            Metres.
+        speed : float
+            m/s.
+        """
         if self.rows and np.isfinite(damping_m) and damping_m > 0:
             self.passes[len(self.rows) - 1] = (float(speed) if np.isfinite(speed) and speed > 0 else 1.0,
                                                float(damping_m))
@@ -87,7 +158,24 @@ class MissionBuilder:
     def distance_photos(self, lat, lon, alt, every: float, since: float) -> float:
         """The photos a distance trigger takes on the leg from the last waypoint to (lat, lon,
         alt): every ``every`` metres of path, ``since`` metres flown since the last one. Returns
-        the metres flown since the last photo at the leg's end."""
+        the metres flown since the last photo at the leg's end.
+
+        Parameters
+        ----------
+        lat, lon : float
+            The leg's end, degrees.
+        alt : float
+            Metres.
+        every : float
+            Metres between photos.
+        since : float
+            Metres flown since the last photo.
+
+        Returns
+        -------
+        float
+            Metres.
+        """
         lat0, lon0, alt0, ref = self.rows[-1][:4]
         if not (np.isfinite(lat) and np.isfinite(lon)) or not every > 0:
             return since
@@ -107,6 +195,7 @@ class MissionBuilder:
         return every - (s - length)
 
     def photo(self) -> None:
+        """Take a photo at the last waypoint."""
         if not self.rows:
             raise InputFileError(self.path, "takes a photo before its first waypoint")
         last = self.rows[-1]
@@ -116,6 +205,23 @@ class MissionBuilder:
         last[4], last[5], last[6] = self.heading, self.pitch, True
 
     def build(self, home=None) -> Mission:
+        """The mission collected.
+
+        Parameters
+        ----------
+        home : (float, float), optional
+            Latitude and longitude of the take-off point, when the file gives it.
+
+        Returns
+        -------
+        Mission
+            The mission.
+
+        Raises
+        ------
+        InputFileError
+            When the file holds no waypoint.
+        """
         if not self.rows:
             raise InputFileError(self.path, "has no waypoints")
         cols = list(zip(*self.rows))
@@ -130,7 +236,28 @@ class MissionBuilder:
 
 
 def mission_to_route(mission: Mission, scene, camera, gsd: float, security: float, params: dict | None = None):
-    """The mission as a Route in ``scene``'s frame (see the module docstring for heights)."""
+    """The mission as a Route in ``scene``'s frame (see the module docstring for heights).
+
+    Parameters
+    ----------
+    mission : Mission
+        The mission.
+    scene : Scene
+        Gives the frame and the ground.
+    camera : Camera
+        The camera flown.
+    gsd : float
+        Metres per pixel at d_opt.
+    security : float
+        The security distance, metres.
+    params : dict, optional
+        More route params.
+
+    Returns
+    -------
+    Route
+        The route.
+    """
 
     frame = scene.frame
     if not geo.has_georeference(frame):

@@ -40,7 +40,25 @@ from coverplan.geometry.orientation import camera_axes, heading_change_deg
 
 @dataclass(frozen=True)
 class PassRules:
-    """When and how fast the drone may take a photo (or pass a transit point) without stopping."""
+    """When and how fast the drone may take a photo (or pass a transit point) without stopping.
+
+    Parameters
+    ----------
+    max_blur_px : float
+        Image motion during the exposure, pixels.
+    max_photo_offset_m : float
+        From the planned photo point to where it is taken.
+    max_turn_deg : float
+        A waypoint where the path turns more is a stop.
+    max_damping_m : float
+        The turn starts at most this far before the waypoint.
+    damping_share : float
+        And within this share of the shorter leg.
+    min_pass_speed : float
+        m/s: slower than this the drone stops instead.
+    turn_share : float
+        Between two photos, heading and gimbal turn over this middle share of the leg.
+    """
 
     max_blur_px: float = 1.0  # image motion during the exposure, pixels
     max_photo_offset_m: float = 0.1  # from the planned photo point to where it is taken
@@ -69,6 +87,8 @@ class PassRules:
 class PassPlan:
     """How one flight's waypoints are flown through.
 
+    Parameters
+    ----------
     speed : (n,) float
         m/s at each waypoint; 0 where the drone stops.
     damping_m : (n,) float
@@ -102,7 +122,18 @@ def _unit(v) -> tuple[np.ndarray, np.ndarray]:
 
 
 def turn_angles(positions) -> np.ndarray:
-    """(n,) degrees the path turns at each waypoint (0 at the ends and where a leg is empty)."""
+    """(n,) degrees the path turns at each waypoint (0 at the ends and where a leg is empty).
+
+    Parameters
+    ----------
+    positions : (n, 3) float
+        Waypoints.
+
+    Returns
+    -------
+    (n,) float
+        Degrees.
+    """
     p = np.asarray(positions, dtype=float).reshape(-1, 3)
     theta = np.zeros(len(p))
     if len(p) < 3:
@@ -117,7 +148,26 @@ def turn_angles(positions) -> np.ndarray:
 def leg_top_speeds(model, positions, heading_deg, pitch_deg, shot, photo_interval_s: float) -> np.ndarray:
     """(n - 1,) the highest speed on each leg: within the cruise speed horizontally and the
     climb / descent rate vertically, no faster than the heading and gimbal turn over it, and
-    between two photos at least ``photo_interval_s`` from one to the next."""
+    between two photos at least ``photo_interval_s`` from one to the next.
+
+    Parameters
+    ----------
+    model : FlightModel
+        The time model.
+    positions : (n, 3) float
+        Waypoints.
+    heading_deg, pitch_deg : (n,) float
+        Orientations.
+    shot : (n,) bool
+        Which take a photo.
+    photo_interval_s : float
+        The shortest time between photos.
+
+    Returns
+    -------
+    (n - 1,) float
+        m/s.
+    """
     p = np.asarray(positions, dtype=float).reshape(-1, 3)
     length = np.linalg.norm(np.diff(p, axis=0), axis=1)
     top = model.top_speeds(p[:-1], p[1:])
@@ -139,7 +189,22 @@ def leg_top_speeds(model, positions, heading_deg, pitch_deg, shot, photo_interva
 def reachable_speeds(bound, length, acceleration: float) -> np.ndarray:
     """(n,) the highest speeds within ``bound`` (n,) that accelerate and brake within
     ``acceleration`` over the legs ``length`` (n - 1,): v_k^2 <= b_j^2 + 2 a |s_k - s_j| for all j,
-    as two running minima."""
+    as two running minima.
+
+    Parameters
+    ----------
+    bound : (n,) float
+        Speed bounds at the waypoints, m/s.
+    length : (n - 1,) float
+        Leg lengths, metres.
+    acceleration : float
+        m/s².
+
+    Returns
+    -------
+    (n,) float
+        m/s.
+    """
     b2 = np.asarray(bound, dtype=float) ** 2
     s = np.concatenate([[0.0], np.cumsum(length)])
     two_a = 2.0 * acceleration
@@ -150,7 +215,24 @@ def reachable_speeds(bound, length, acceleration: float) -> np.ndarray:
 
 def trapezoid_seconds(length, entry, exit_, top, acceleration: float) -> np.ndarray:
     """(m,) time over legs of ``length`` from speed ``entry`` to ``exit_`` with at most ``top``,
-    speeding up and braking at ``acceleration`` (the end speeds must be reachable)."""
+    speeding up and braking at ``acceleration`` (the end speeds must be reachable).
+
+    Parameters
+    ----------
+    length : (m,) float
+        Metres.
+    entry, exit_ : (m,) float
+        m/s.
+    top : (m,) float
+        m/s.
+    acceleration : float
+        m/s².
+
+    Returns
+    -------
+    (m,) float
+        Seconds.
+    """
     L, u, w = (np.asarray(x, dtype=float) for x in (length, entry, exit_))
     V = np.maximum(np.asarray(top, dtype=float), np.maximum(u, w))
     a = acceleration
@@ -246,7 +328,20 @@ def pass_plan(model, positions, shot, heading_deg, pitch_deg, nearest_m, *, pixe
 
 def corner_offsets(positions, damping_m) -> np.ndarray:
     """(n, 3) where the drone passes each waypoint minus the waypoint: ``d tan(theta / 4)`` into
-    the turn for a turn starting ``damping_m`` (n,) before it; 0 where the damping is 0."""
+    the turn for a turn starting ``damping_m`` (n,) before it; 0 where the damping is 0.
+
+    Parameters
+    ----------
+    positions : (n, 3) float
+        Waypoints.
+    damping_m : (n,) float
+        Metres.
+
+    Returns
+    -------
+    (n, 3) float
+        Metres.
+    """
     p = np.asarray(positions, dtype=float).reshape(-1, 3)
     d = np.asarray(damping_m, dtype=float).reshape(-1)
     if len(p) < 3:
@@ -259,7 +354,28 @@ def corner_offsets(positions, damping_m) -> np.ndarray:
 
 def nearest_in_frame(rays, positions, heading_deg, pitch_deg, camera, max_range: float, grid: int = 7) -> np.ndarray:
     """(n,) the nearest surface each photo sees: the shortest of ``grid`` x ``grid`` rays over its
-    frame (``max_range`` where none hits)."""
+    frame (``max_range`` where none hits).
+
+    Parameters
+    ----------
+    rays : RayCaster
+        The scene's ray caster.
+    positions : (n, 3) float
+        Camera centres.
+    heading_deg, pitch_deg : (n,) float
+        Orientations.
+    camera : Camera
+        The camera.
+    max_range : float
+        Metres.
+    grid : int
+        Rays per side of the frame.
+
+    Returns
+    -------
+    (n,) float
+        Metres.
+    """
     p = np.asarray(positions, dtype=float).reshape(-1, 3)
     if not len(p):
         return np.zeros(0)
@@ -278,7 +394,20 @@ def nearest_in_frame(rays, positions, heading_deg, pitch_deg, camera, max_range:
 def flown_path(positions, damping_m) -> np.ndarray:
     """(m, 3) the polyline the drone flies: each waypoint flown through (``damping_m`` > 0)
     replaced by where its turn starts, where it passes the waypoint and where the turn ends
-    (the arc lies within that corner of the triangle), the others kept."""
+    (the arc lies within that corner of the triangle), the others kept.
+
+    Parameters
+    ----------
+    positions : (n, 3) float
+        Waypoints.
+    damping_m : (n,) float
+        Metres; 0 at stops.
+
+    Returns
+    -------
+    (m, 3) float
+        The flown polyline.
+    """
     p = np.asarray(positions, dtype=float).reshape(-1, 3)
     d = np.asarray(damping_m, dtype=float).reshape(-1)
     if len(p) < 3:
@@ -293,7 +422,18 @@ def flown_path(positions, damping_m) -> np.ndarray:
 
 
 def corner_rows(damping_m) -> np.ndarray:
-    """(m,) the waypoint each point of :func:`flown_path` belongs to."""
+    """(m,) the waypoint each point of :func:`flown_path` belongs to.
+
+    Parameters
+    ----------
+    damping_m : (n,) float
+        Metres, as given to ``flown_path``.
+
+    Returns
+    -------
+    (m,) int
+        Waypoint indices.
+    """
     d = np.asarray(damping_m, dtype=float).reshape(-1)
     counts = np.where(d > 0, 3, 1) if len(d) >= 3 else np.ones(len(d), dtype=int)
     return np.repeat(np.arange(len(d)), counts)
@@ -302,7 +442,22 @@ def corner_rows(damping_m) -> np.ndarray:
 def camera_timing(camera, drone=None, model=None) -> dict:
     """The camera's side of flying through, as :func:`fly_through` takes it: a pixel's angle,
     the exposure and the shortest photo interval (the drone profile's; without one a survey
-    exposure and the flight model's photo time)."""
+    exposure and the flight model's photo time).
+
+    Parameters
+    ----------
+    camera : Camera
+        The camera.
+    drone : DroneProfile, optional
+        The drone.
+    model : FlightModel, optional
+        The time model.
+
+    Returns
+    -------
+    dict
+        ``pixel_angle`` (radians), ``shutter_s`` and ``photo_interval_s``.
+    """
     interval = drone.photo_interval_s if drone is not None else (model.photo_seconds if model is not None else 1.0)
     return {"pixel_angle": camera.pixel_pitch_mm / camera.focal_length_mm,
             "shutter_s": drone.shutter_s if drone is not None else SURVEY_SHUTTER_S,
@@ -312,7 +467,32 @@ def camera_timing(camera, drone=None, model=None) -> dict:
 def route_pass_plan(route, model, nearest_m, *, pixel_angle: float, shutter_s: float, photo_interval_s: float,
                     rules: PassRules = PassRules(), stops=None) -> PassPlan:
     """:func:`pass_plan` of every battery flight of ``route``, as route-wide arrays (the leg from
-    one flight's landing to the next take-off is not flown: 0 s)."""
+    one flight's landing to the next take-off is not flown: 0 s).
+
+    Parameters
+    ----------
+    route : Route
+        The route.
+    model : FlightModel
+        The time model.
+    nearest_m : (n,) float
+        The nearest surface each waypoint's photo sees.
+    pixel_angle : float
+        Radians per pixel.
+    shutter_s : float
+        Exposure, seconds.
+    photo_interval_s : float
+        The shortest time between photos.
+    rules : PassRules
+        When a waypoint may be flown through.
+    stops : (n,) bool, optional
+        Waypoints that must be stops.
+
+    Returns
+    -------
+    PassPlan
+        Route-wide arrays.
+    """
     n = len(route.positions)
     speed, damping, hover = np.zeros(n), np.zeros(n), np.zeros(n)
     offset, legs = np.zeros((n, 3)), np.zeros(max(n - 1, 0))
@@ -329,7 +509,22 @@ def route_pass_plan(route, model, nearest_m, *, pixel_angle: float, shutter_s: f
 
 def pass_minutes(route, plan: PassPlan, model) -> list[float]:
     """Minutes of each battery flight of ``route`` flown through by ``plan``, take-off and
-    landing included."""
+    landing included.
+
+    Parameters
+    ----------
+    route : Route
+        The route.
+    plan : PassPlan
+        Its passes.
+    model : FlightModel
+        The time model.
+
+    Returns
+    -------
+    list of float
+        Minutes per flight.
+    """
     out = []
     for rows in route.flight_rows():
         height = float(route.positions[rows[0], 2] - route.takeoff_z)
@@ -347,6 +542,32 @@ def fly_through(route, scene, limits, model, *, pixel_angle: float, shutter_s: f
     The turns it cuts are checked as the final check checks the route: every piece of the
     flown path keeps the security distance and stays out of the zones; a waypoint whose turn
     does not becomes a stop, and the plan is made again.
+
+    Parameters
+    ----------
+    route : Route
+        Changed in place.
+    scene : Scene
+        The scene.
+    limits : ViewLimits
+        Altitude band and zones.
+    model : FlightModel
+        The time model.
+    pixel_angle : float
+        Radians per pixel.
+    shutter_s : float
+        Exposure, seconds.
+    photo_interval_s : float
+        The shortest time between photos.
+    rules : PassRules
+        When a waypoint may be flown through.
+    max_rounds : int
+        Times the plan is made again after a turn fails the check.
+
+    Returns
+    -------
+    dict
+        Minutes in total and per flight, and how many waypoints are flown through.
     """
     nearest = np.full(len(route), np.inf)
     shots = route.shots
@@ -390,7 +611,20 @@ def fly_through(route, scene, limits, model, *, pixel_angle: float, shutter_s: f
 def leg_speeds(route, cruise_speed: float) -> np.ndarray:
     """(n,) the speed each waypoint's exported leg to the next is flown at: the cruise speed,
     slowed to the pass speed of either end that is flown through (DJI's ``waypointSpeed``, a
-    ``DO_CHANGE_SPEED`` before a MAVLink waypoint). The last waypoint keeps the cruise speed."""
+    ``DO_CHANGE_SPEED`` before a MAVLink waypoint). The last waypoint keeps the cruise speed.
+
+    Parameters
+    ----------
+    route : Route
+        The route.
+    cruise_speed : float
+        m/s.
+
+    Returns
+    -------
+    (n,) float
+        m/s.
+    """
     n = len(route.positions)
     out = np.full(n, float(cruise_speed))
     if route.pass_speed is None or n < 2:
@@ -403,7 +637,22 @@ def leg_speeds(route, cruise_speed: float) -> np.ndarray:
 def route_leg_seconds(route, model, photo_interval_s: float) -> np.ndarray:
     """(n - 1,) each leg's time as the route is flown: through its recorded pass speeds (from
     rest to rest where it stops), no faster than :func:`leg_top_speeds`; 0 between battery
-    flights."""
+    flights.
+
+    Parameters
+    ----------
+    route : Route
+        The route.
+    model : FlightModel
+        The time model.
+    photo_interval_s : float
+        The shortest time between photos.
+
+    Returns
+    -------
+    (n - 1,) float
+        Seconds.
+    """
     n = len(route.positions)
     legs = np.zeros(max(n - 1, 0))
     speed = route.pass_speed if route.pass_speed is not None else np.zeros(n)
@@ -419,7 +668,18 @@ def route_leg_seconds(route, model, photo_interval_s: float) -> np.ndarray:
 
 
 def travel_directions(positions) -> np.ndarray:
-    """(n, 3) unit direction of travel at each waypoint: along the bisector of its two legs."""
+    """(n, 3) unit direction of travel at each waypoint: along the bisector of its two legs.
+
+    Parameters
+    ----------
+    positions : (n, 3) float
+        Waypoints.
+
+    Returns
+    -------
+    (n, 3) float
+        Unit vectors; 0 where both legs are empty.
+    """
     p = np.asarray(positions, dtype=float).reshape(-1, 3)
     if len(p) < 2:
         return np.zeros_like(p)

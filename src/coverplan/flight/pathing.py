@@ -28,7 +28,19 @@ _NEIGHBOURS = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k 
 
 @dataclass
 class FlightGraph:
-    """Lattice nodes followed by the special points (start first, then shots)."""
+    """Lattice nodes followed by the special points (start first, then shots).
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Lattice nodes, then the start, then the shots.
+    graph : scipy.sparse.csr_matrix
+        Safe, cost-weighted edges.
+    n_lattice : int
+        How many of ``points`` are lattice nodes.
+    spacing : float
+        The lattice spacing, metres.
+    """
 
     points: np.ndarray  # (n, 3)
     graph: sp.csr_matrix  # symmetric weights
@@ -36,17 +48,65 @@ class FlightGraph:
     spacing: float
 
     def special(self, k: int) -> int:
-        """Graph index of special point k (0 = start, 1.. = shots)."""
+        """Graph index of special point k (0 = start, 1.. = shots).
+
+        Parameters
+        ----------
+        k : int or (m,) int
+            Special indices.
+
+        Returns
+        -------
+        int or (m,) int
+            Graph indices.
+        """
         return self.n_lattice + k
 
 
 def lattice_spacing(d_opt: float, security: float, volume: float, max_nodes: int) -> float:
+    """The flight graph's lattice spacing: a third of d_opt at most, coarser where the volume would need more than ``max_nodes`` nodes.
+
+    Parameters
+    ----------
+    d_opt : float
+        The optimal distance, metres.
+    security : float
+        The security distance, metres.
+    volume : float
+        The lattice's volume, cubic metres.
+    max_nodes : int
+        The most nodes.
+
+    Returns
+    -------
+    float
+        Metres.
+    """
     h = min(d_opt / 3.0, max(security, d_opt / 6.0))
     return float(max(h, (volume / max_nodes) ** (1.0 / 3.0)))
 
 
 def node_costs(points, scene_distance, target_distance, d_opt: float) -> tuple[np.ndarray, float]:
-    """Thesis cost per point: (K - d(scene)) + |d(target) - d_opt|, with K the largest d(scene)."""
+    """Thesis cost per point: (K - d(scene)) + |d(target) - d_opt|, with K the largest d(scene).
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Lattice nodes.
+    scene_distance : (n,) float
+        Their distance to the scene.
+    target_distance : (n,) float
+        Their distance to the target.
+    d_opt : float
+        The optimal distance, metres.
+
+    Returns
+    -------
+    cost : (n,) float
+        Metres.
+    k : float
+        The largest distance to the scene.
+    """
     k = float(scene_distance.max()) if len(scene_distance) else 1.0
     return (k - scene_distance) + np.abs(target_distance - d_opt), max(k, 1e-9)
 
@@ -95,7 +155,33 @@ def _lattice(clearance, limits, lo, hi, spacing: float, radius: float, far: floa
 class Lattice:
     """The safe lattice of a flight graph before the start and shots join it: fine nodes over
     ``box`` at ``spacing``, then coarse nodes out to ``start``; each node's distance bounds to
-    the scene and distance to the target (for the cost); safe edges ``rows`` -> ``cols``."""
+    the scene and distance to the target (for the cost); safe edges ``rows`` -> ``cols``.
+
+    Parameters
+    ----------
+    box : ((3,) float, (3,) float)
+        The fine lattice's box.
+    start : (3,) float
+        The take-off point.
+    spacing : float
+        The fine spacing, metres.
+    radius : float
+        The clearance the edges keep, metres.
+    nodes : (n, 3) float
+        Fine then coarse nodes.
+    lower, upper : (n,) float
+        Bounds of each node's distance to the scene.
+    target_d : (n,) float
+        Each node's distance to the target.
+    target_tree : scipy.spatial.cKDTree
+        Over points covering the target's surface.
+    rows, cols : (e,) int
+        Safe edges.
+    n_fine : int
+        Fine nodes.
+    coarse_step : float or None
+        The coarse spacing; None without coarse nodes.
+    """
 
     box: tuple[np.ndarray, np.ndarray]
     start: np.ndarray
@@ -112,13 +198,47 @@ class Lattice:
     coarse_step: float | None
 
     def serves(self, box, start, spacing: float, radius: float) -> bool:
-        """Whether this lattice is the one ``build_lattice`` would make for these."""
+        """Whether this lattice is the one ``build_lattice`` would make for these.
+
+        Parameters
+        ----------
+        box : ((3,) float, (3,) float)
+            The fine lattice's box.
+        start : (3,) float
+            The take-off point.
+        spacing : float
+            Metres.
+        radius : float
+            Metres.
+
+        Returns
+        -------
+        bool
+            True when it can be used.
+        """
         return (self.spacing == spacing and self.radius == radius and np.array_equal(self.start, start)
                 and all(np.array_equal(a, b) for a, b in zip(self.box, box)))
 
 
 def lattice_box(scene, limits, shots, spacing: float) -> tuple[np.ndarray, np.ndarray]:
-    """The fine lattice's box: the target's and the shots' with room around them."""
+    """The fine lattice's box: the target's and the shots' with room around them.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    limits : ViewLimits
+        The altitude band.
+    shots : (k, 3) float
+        Shot positions.
+    spacing : float
+        Metres.
+
+    Returns
+    -------
+    lo, hi : (3,) float
+        The box's corners.
+    """
     shots = np.asarray(shots, dtype=float).reshape(-1, 3)
     lo, hi = scene.bounds("target")
     pad = limits.d_opt + 2 * spacing
@@ -133,7 +253,30 @@ def build_lattice(scene, limits, box, start, *, margin: float, spacing: float,
                   max_coarse_nodes: int = 50_000) -> Lattice:
     """The lattice over ``box`` (``lattice_box``) at ``spacing``, and a coarser one (at least
     3x the spacing) between it and a start outside it, so a take-off far away does not coarsen
-    the paths between shots."""
+    the paths between shots.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    limits : ViewLimits
+        Security distance, altitude band and zones.
+    box : ((3,) float, (3,) float)
+        The fine lattice's box.
+    start : (3,) float
+        The take-off point.
+    margin : float
+        Clearance kept beyond the security distance, metres.
+    spacing : float
+        Metres.
+    max_coarse_nodes : int
+        The most coarse nodes.
+
+    Returns
+    -------
+    Lattice
+        Nodes and safe edges.
+    """
     clearance = scene.clearance_model(limits.security)
     radius = limits.security + margin
     start = np.asarray(start, dtype=float).reshape(3)
@@ -188,6 +331,32 @@ def build_flight_graph(scene, limits, specials, *, margin: float, spacing: float
 
     The lattice (``build_lattice``) has ``spacing`` around the target and its shots; a
     ``lattice`` built beforehand is used when it is the one these specials ask for.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    limits : ViewLimits
+        Security distance, altitude band and zones.
+    specials : (s, 3) float
+        The start, then the shots.
+    margin : float
+        Clearance kept beyond the security distance, metres.
+    spacing : float
+        Metres.
+    cost_weight : float
+        The weight of the placement cost against length.
+    max_coarse_nodes : int
+        The most coarse nodes.
+    progress : Progress, optional
+        Reports the stage.
+    lattice : Lattice, optional
+        Built beforehand.
+
+    Returns
+    -------
+    FlightGraph
+        The graph.
     """
     clearance = scene.clearance_model(limits.security)
     radius = limits.security + margin
@@ -253,6 +422,26 @@ def shot_distances(fg: FlightGraph, n_special: int, limit: float, pool: Executor
     without limit so every reachable shot connects. With ``pool``, every other block of
     sources is searched there (scipy's Dijkstra runs without the GIL), with the same result.
     Returns (closure, its predecessors, the direct costs).
+
+    Parameters
+    ----------
+    fg : FlightGraph
+        The graph.
+    n_special : int
+        Specials (start and shots).
+    limit : float
+        The Dijkstra cut-off cost.
+    pool : Executor, optional
+        Runs half the searches.
+
+    Returns
+    -------
+    closure : (s, s) float
+        Costs.
+    pred : (s, s) int
+        The closure's predecessors.
+    direct : (s, s) float
+        Costs found directly.
     """
     # The graphs are symmetric: directed=True gives the same paths and spares scipy a
     # conversion of the whole graph on every call.
@@ -276,7 +465,20 @@ def shot_distances(fg: FlightGraph, n_special: int, limit: float, pool: Executor
 
 
 def closure_hops(pred, u: int, v: int) -> list[int]:
-    """Special points from u to v along the closure's shortest path (u and v included)."""
+    """Special points from u to v along the closure's shortest path (u and v included).
+
+    Parameters
+    ----------
+    pred : (s, s) int
+        The closure's predecessors.
+    u, v : int
+        Special indices.
+
+    Returns
+    -------
+    list of int
+        Special indices.
+    """
     hops = [v]
     while hops[-1] != u:
         hops.append(int(pred[u, hops[-1]]))
@@ -285,7 +487,22 @@ def closure_hops(pred, u: int, v: int) -> list[int]:
 
 def leg(fg: FlightGraph, a: int, b: int, cost: float) -> np.ndarray:
     """Graph nodes of the cheapest path from node a to node b (both included), whose cost is
-    known to be ``cost`` (the search stops there)."""
+    known to be ``cost`` (the search stops there).
+
+    Parameters
+    ----------
+    fg : FlightGraph
+        The graph.
+    a, b : int
+        Graph nodes.
+    cost : float
+        The path's known cost.
+
+    Returns
+    -------
+    (k,) int
+        Graph nodes.
+    """
     if a == b:
         return np.array([a])
     dist, pred = dijkstra(fg.graph, directed=True, indices=a, return_predecessors=True,
@@ -304,6 +521,24 @@ def shortcut(points, clearance, radius: float, batch: int = 8, floor=None) -> np
 
     From each kept point, jump to the farthest later point in view: the farthest is tried
     first (most legs are then one segment), then the next ``batch`` farthest, and so on.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        A safe polyline.
+    clearance : ClearanceModel
+        Checks segments.
+    radius : float
+        Metres.
+    batch : int
+        Later points tried per round.
+    floor : callable, optional
+        ``floor(starts, ends)``.
+
+    Returns
+    -------
+    (k,) int
+        Indices into ``points``, first and last included.
     """
     keep = [0]
     i = 0
@@ -327,7 +562,24 @@ def shortcut(points, clearance, radius: float, batch: int = 8, floor=None) -> np
 def polyline_checks(points, clearance, limits) -> tuple[np.ndarray, np.ndarray]:
     """Per segment of the polyline ``points`` (n, 3): whether it keeps the security distance
     (exact), and whether it and its two ends stay within the altitude band and out of the
-    zones. Both (n - 1,) bool."""
+    zones. Both (n - 1,) bool.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        The polyline.
+    clearance : ClearanceModel
+        Checks segments.
+    limits : ViewLimits
+        Security distance, altitude band and zones.
+
+    Returns
+    -------
+    clear : (n - 1,) bool
+        Keeps the security distance.
+    allowed : (n - 1,) bool
+        Within the altitude band and out of the zones.
+    """
     p = np.asarray(points, dtype=float).reshape(-1, 3)
     if len(p) < 2:
         return np.zeros(0, dtype=bool), np.zeros(0, dtype=bool)

@@ -26,13 +26,37 @@ DEFAULT_PARAMS = {"min_views": 2, "min_triangulation_deg": 5.0, "max_incidence_d
 
 
 def polyline_length(points) -> float:
-    """Length of the polyline through ``points`` (n x 3)."""
+    """Length of the polyline through ``points`` (n x 3).
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        The polyline.
+
+    Returns
+    -------
+    float
+        Metres.
+    """
     p = np.asarray(points, dtype=float).reshape(-1, 3)
     return float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum()) if len(p) > 1 else 0.0
 
 
 def coverage_length(points, shot) -> float:
-    """Length from the first shot to the last (the thesis's tables count only this)."""
+    """Length from the first shot to the last (the thesis's tables count only this).
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Waypoints.
+    shot : (n,) bool
+        Which take a photo.
+
+    Returns
+    -------
+    float
+        Metres.
+    """
     rows = np.flatnonzero(shot)
     return polyline_length(np.asarray(points)[rows[0]:rows[-1] + 1]) if len(rows) else 0.0
 
@@ -133,12 +157,24 @@ class Route:
         return self.pass_speed is not None and bool((self.pass_speed > 0).any())
 
     def passing(self) -> np.ndarray:
-        """(n,) bool: waypoints flown through without stopping."""
+        """(n,) bool: waypoints flown through without stopping.
+
+        Returns
+        -------
+        (n,) bool
+            True where ``pass_speed`` is above 0.
+        """
         return np.zeros(len(self), dtype=bool) if self.pass_speed is None else self.pass_speed > 0
 
     def flown_positions(self) -> np.ndarray:
         """(n, 3) where the drone is as it passes each waypoint: the waypoint itself at a stop,
-        off it on the inside of the turn where it flies through (passing.py)."""
+        off it on the inside of the turn where it flies through (passing.py).
+
+        Returns
+        -------
+        (n, 3) float
+            Metres, local frame.
+        """
         if self.turn_damping is None:
             return self.positions.copy()
         return self.positions + corner_offsets(self.positions, np.where(self.passing(), self.turn_damping, 0.0))
@@ -146,7 +182,13 @@ class Route:
     def straight_points(self) -> np.ndarray:
         """(n,) bool: waypoints without a photo inside a flight where the path runs straight on
         (turns under 0.5 deg), such as the turn points between photos (flight/turning.py). A
-        drone that stops at every waypoint need not stop there."""
+        drone that stops at every waypoint need not stop there.
+
+        Returns
+        -------
+        (n,) bool
+            The straight transit points.
+        """
         out = np.zeros(len(self), dtype=bool)
         for rows in self.flight_rows():
             if len(rows) > 2:
@@ -159,10 +201,12 @@ class Route:
 
     @property
     def shots(self) -> np.ndarray:
+        """(k,) int: the rows of the waypoints that take a photo."""
         return np.flatnonzero(self.shot)
 
     @property
     def path_length(self) -> float:
+        """The length of the whole path through every waypoint, metres."""
         return polyline_length(self.positions)
 
     @property
@@ -172,6 +216,7 @@ class Route:
 
     @property
     def n_flights(self) -> int:
+        """How many battery flights the route has."""
         return int(self.flight.max()) if len(self.flight) else 0
 
     @property
@@ -193,7 +238,13 @@ class Route:
         return self.positions[:, 2] - (self.ground_z if self.ground_z is not None else self.takeoff_z)
 
     def flight_rows(self) -> list[np.ndarray]:
-        """Waypoint rows of each battery flight, in order (each from the start point back to it)."""
+        """Waypoint rows of each battery flight, in order (each from the start point back to it).
+
+        Returns
+        -------
+        list of (m,) int
+            One array of rows per flight.
+        """
         return [np.flatnonzero(self.flight == k) for k in range(1, self.n_flights + 1)]
 
     def flight_route(self, k: int) -> "Route":
@@ -219,7 +270,13 @@ class Route:
     def with_existing_photos(self) -> "Route":
         """This route with the photos it was planned around (``params.existing_photos``) as a
         battery flight of their own after its flights: what SfM gets when the old and the new
-        photos are reconstructed together. The route itself when it has none."""
+        photos are reconstructed together. The route itself when it has none.
+
+        Returns
+        -------
+        Route
+            A new route, or this one.
+        """
         taken = self.params.get("existing_photos") or {}
         if not taken.get("positions"):
             return self
@@ -239,22 +296,50 @@ class Route:
                      turn_damping=None if self.turn_damping is None else np.concatenate([self.turn_damping, zeros]))
 
     def flight_minutes(self, speed: float, shot_seconds: float) -> float:
-        """The simple estimate: the path at ``speed`` m/s plus ``shot_seconds`` per photo."""
+        """The simple estimate: the path at ``speed`` m/s plus ``shot_seconds`` per photo.
+
+        Parameters
+        ----------
+        speed : float
+            m/s.
+        shot_seconds : float
+            Seconds per photo.
+
+        Returns
+        -------
+        float
+            Minutes.
+        """
         return (self.path_length / speed + int(self.shot.sum()) * shot_seconds) / 60.0
 
     @property
     def gsd(self) -> float:
+        """The ground sampling distance asked, metres per pixel."""
         return float(self.params["gsd_m"])
 
     @property
     def security(self) -> float:
+        """The security distance, metres."""
         return float(self.params["security_m"])
 
     @property
     def d_opt(self) -> float:
+        """The camera distance of the GSD asked, metres."""
         return self.camera.optimal_distance(self.gsd)
 
     def param(self, name):
+        """A setting the route was planned with, or its default when the file does not record it.
+
+        Parameters
+        ----------
+        name : str
+            A key of ``params``.
+
+        Returns
+        -------
+        object
+            The value.
+        """
         return self.params.get(name, DEFAULT_PARAMS.get(name))
 
     # -- file format -----------------------------------------------------------------
@@ -427,7 +512,13 @@ class Route:
                    turn_damping=np.array([d for _, d in passes]) if passes else None)
 
     def orientation_errors_deg(self) -> np.ndarray:
-        """Angle between each waypoint's view_dir and the one its heading and pitch give."""
+        """Angle between each waypoint's view_dir and the one its heading and pitch give.
+
+        Returns
+        -------
+        (n,) float
+            Degrees.
+        """
         return angle_between_deg(self.view_dir, view_direction(self.heading_deg, self.pitch_deg))
 
 

@@ -10,7 +10,22 @@ from coverplan.world.zones import KEEP_OUT
 
 
 def default_start(scene, limits: ViewLimits, margin: float) -> np.ndarray:
-    """A point just outside the shot region, north-west of the target, at the minimum altitude."""
+    """A point just outside the shot region, north-west of the target, at the minimum altitude.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    limits : ViewLimits
+        Security distance, altitude band and zones.
+    margin : float
+        Metres beyond the shot region.
+
+    Returns
+    -------
+    (3,) float
+        The take-off point, local frame.
+    """
     lo, hi = scene.bounds("target")
     clearance = scene.clearance_model(limits.security)
     centre = (lo + hi) / 2.0
@@ -82,7 +97,31 @@ MAX_START_DISTANCE_M = 5_000.0  # farther than any battery flies: a coordinate m
 
 def check_start(scene, start, limits: ViewLimits) -> tuple[np.ndarray, list[str]]:
     """The start point given, raised to the minimum altitude, refused inside or near a mesh or far
-    from the target; returns it with notes on what was changed."""
+    from the target; returns it with notes on what was changed.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    start : (3,) float
+        The take-off point asked for, local frame.
+    limits : ViewLimits
+        Security distance, altitude band and zones.
+
+    Returns
+    -------
+    start : (3,) float
+        The take-off point used.
+    notes : list of str
+        What was changed.
+
+    Raises
+    ------
+    ParameterError
+        A point that is not three finite numbers, far from the target, or on the wrong side of a zone.
+    PlanningError
+        A point inside a mesh or closer to one than the security distance.
+    """
     notes = []
     start = np.asarray(start, dtype=float).reshape(3)
     if not np.isfinite(start).all():

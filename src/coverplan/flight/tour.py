@@ -32,11 +32,37 @@ _NEAR = 16  # turn-aware moves join a node to one of its 16 nearest
 
 
 def tour_length(order, dist) -> float:
+    """The length of the closed tour ``order``.
+
+    Parameters
+    ----------
+    order : (n,) int
+        Node order.
+    dist : (n, n) float
+        Distances.
+
+    Returns
+    -------
+    float
+        The sum of the tour's steps, last back to first included.
+    """
     order = np.asarray(order)
     return float(dist[order, np.roll(order, -1)].sum())
 
 
 def nearest_neighbour(dist) -> np.ndarray:
+    """A tour from node 0 that always goes on to the nearest node not yet visited.
+
+    Parameters
+    ----------
+    dist : (n, n) float
+        Distances.
+
+    Returns
+    -------
+    (n,) int
+        Node order.
+    """
     n = len(dist)
     order = [0]
     free = np.ones(n, dtype=bool)
@@ -114,7 +140,22 @@ def _move_runs_while_improving(t, moves, most: int, max_segment: int, last: int)
 
 def two_opt(order, dist) -> tuple[np.ndarray, bool]:
     """Reverse segments while that shortens the tour (best move per first edge, first edges
-    in tour order)."""
+    in tour order).
+
+    Parameters
+    ----------
+    order : (n,) int
+        A closed tour starting at node 0.
+    dist : (n, n) float
+        Symmetric distances.
+
+    Returns
+    -------
+    order : (n,) int
+        The improved tour.
+    changed : bool
+        Whether any move was made.
+    """
     t = np.array(order)
     n = len(t)
     cols = np.arange(n)
@@ -133,7 +174,24 @@ def two_opt(order, dist) -> tuple[np.ndarray, bool]:
 
 
 def or_opt(order, dist, max_segment: int = 3) -> tuple[np.ndarray, bool]:
-    """Move runs of 1..max_segment stops elsewhere (either way round) while that helps."""
+    """Move runs of 1..max_segment stops elsewhere (either way round) while that helps.
+
+    Parameters
+    ----------
+    order : (n,) int
+        A closed tour starting at node 0.
+    dist : (n, n) float
+        Symmetric distances.
+    max_segment : int
+        The longest run moved.
+
+    Returns
+    -------
+    order : (n,) int
+        The improved tour.
+    changed : bool
+        Whether any move was made.
+    """
     t = np.array(order)
     n = len(t)
     cols = np.arange(n)
@@ -158,7 +216,18 @@ def or_opt(order, dist, max_segment: int = 3) -> tuple[np.ndarray, bool]:
 
 
 def solve_tour(dist) -> np.ndarray:
-    """A short closed tour over all nodes of the symmetric matrix ``dist``, starting at 0."""
+    """A short closed tour over all nodes of the symmetric matrix ``dist``, starting at 0.
+
+    Parameters
+    ----------
+    dist : (n, n) float
+        Symmetric distances.
+
+    Returns
+    -------
+    (n,) int
+        Node order.
+    """
     dist = np.asarray(dist, dtype=float)
     n = len(dist)
     if n <= 3:
@@ -175,14 +244,46 @@ def turn_costs(positions, a, b, c, reversal_m: float) -> np.ndarray:
     """The cost of flying a -> b -> c at b, in metres of path: ``reversal_m`` where the
     direction turns by more than 90 deg (the drone must stop there). Index arrays broadcast;
     a turn at node 0 (take-off and landing) or over a step of no length costs nothing. Only
-    the sign of (b - a) . (c - b) matters, so nothing is normalised."""
+    the sign of (b - a) . (c - b) matters, so nothing is normalised.
+
+    Parameters
+    ----------
+    positions : (n, 3) float
+        Node positions.
+    a, b, c : array_like of int
+        Node indices.
+    reversal_m : float
+        Metres a reversal costs.
+
+    Returns
+    -------
+    ndarray of float
+        Metres.
+    """
     x, y, z = np.asarray(positions).T  # per axis: 3x faster than einsum on the moves' small blocks
     back = (x[b] - x[a]) * (x[c] - x[b]) + (y[b] - y[a]) * (y[c] - y[b]) + (z[b] - z[a]) * (z[c] - z[b]) < 0.0
     return np.where(back & (np.asarray(b) != 0), reversal_m, 0.0)
 
 
 def turned_length(order, dist, positions, reversal_m: float) -> float:
-    """``tour_length`` plus the ``turn_costs`` at every node of the closed tour."""
+    """``tour_length`` plus the ``turn_costs`` at every node of the closed tour.
+
+    Parameters
+    ----------
+    order : (n,) int
+        A closed tour.
+    dist : (n, n) float
+        Distances.
+    positions : (n, 3) float
+        Node positions.
+    reversal_m : float
+        Metres a reversal costs.
+
+    Returns
+    -------
+    float
+        Metres.
+    """
     t = np.asarray(order)
     turns = turn_costs(positions, np.roll(t, 1), t, np.roll(t, -1), reversal_m)
     return tour_length(t, dist) + float(turns.sum())
@@ -288,6 +389,11 @@ def refine_turns(order, dist, positions, reversal_m: float) -> np.ndarray:
         neighbours in the tour.
     reversal_m : float
         Metres of path a reversal (a turn over 90 deg) and a full turn back are worth.
+
+    Returns
+    -------
+    (n,) int
+        Node order, node 0 first.
     """
     positions = np.asarray(positions, dtype=float)
     dist = np.asarray(dist, dtype=float)
@@ -304,7 +410,18 @@ def refine_turns(order, dist, positions, reversal_m: float) -> np.ndarray:
 
 def typical_step(dist) -> float:
     """The median distance from a shot (nodes 1..n-1 of ``dist``) to its nearest shot; 0 for
-    fewer than two shots."""
+    fewer than two shots.
+
+    Parameters
+    ----------
+    dist : (n, n) float
+        Distances, node 0 the start.
+
+    Returns
+    -------
+    float
+        Metres.
+    """
     d = np.asarray(dist, dtype=float)[1:, 1:]
     if len(d) < 2:
         return 0.0
@@ -314,7 +431,20 @@ def typical_step(dist) -> float:
 def reaim_costs(heading_deg, pitch_deg, reaim_m: float) -> np.ndarray:
     """(n, n) ``reaim_m`` between two nodes whose step would not be smooth (heading more than
     10 deg or gimbal pitch more than 5 deg apart, flight/lanes.py), else 0; node 0 (the start)
-    costs nothing."""
+    costs nothing.
+
+    Parameters
+    ----------
+    heading_deg, pitch_deg : (n,) float
+        Each node's orientation.
+    reaim_m : float
+        Metres a rough step costs.
+
+    Returns
+    -------
+    (n, n) float
+        Metres.
+    """
     heading = np.asarray(heading_deg, dtype=float)
     pitch = np.asarray(pitch_deg, dtype=float)
     rough = ~smooth_step(heading[:, None], pitch[:, None], heading[None, :], pitch[None, :])
@@ -336,6 +466,11 @@ def lane_costs(pairs: np.ndarray, shots: np.ndarray, lane_m: float) -> np.ndarra
         The candidate index of each shot (node k + 1).
     lane_m : float
         Metres of path that breaking a lane is worth.
+
+    Returns
+    -------
+    (n + 1, n + 1) float
+        Metres.
     """
     shots = np.asarray(shots, dtype=np.int64)
     n = len(shots) + 1

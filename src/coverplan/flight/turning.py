@@ -23,7 +23,18 @@ MIN_LEG_M = 1.0  # shorter legs keep their even turn
 
 def camera_turns(heading_a, pitch_a, heading_b, pitch_b) -> np.ndarray:
     """Whether the camera turns enough between orientation a and b for a leg joining two
-    photos to get turn points (heading or pitch at least MIN_TURN_DEG apart); arrays broadcast."""
+    photos to get turn points (heading or pitch at least MIN_TURN_DEG apart); arrays broadcast.
+
+    Parameters
+    ----------
+    heading_a, pitch_a, heading_b, pitch_b : array_like of float
+        Degrees.
+
+    Returns
+    -------
+    ndarray of bool
+        Where the camera turns.
+    """
     turn = np.abs(heading_change_deg(heading_a, heading_b))
     tilt = np.abs(np.asarray(pitch_b, float) - np.asarray(pitch_a, float))
     return (turn >= MIN_TURN_DEG) | (tilt >= MIN_TURN_DEG)
