@@ -79,6 +79,26 @@ def brace_links(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse_vis
     Candidates are those that brace a cut by their links on the planner's samples
     (``coarse_vis``: candidates x those samples); their links are then judged on the check
     samples.
+
+    Parameters
+    ----------
+    problem : CoverProblem
+        The candidates and the check samples.
+    closer : GapCloser
+        Judges links on the check samples.
+    chosen : (k,) int
+        Candidate indices.
+    rule : MatchRule
+        The matching rule.
+    coarse_vis : scipy.sparse.csr_matrix
+        Candidates by the planner's samples.
+    max_added : int, optional
+        The most candidates added.
+
+    Returns
+    -------
+    (m,) int
+        ``chosen`` with the added candidates after it.
     """
     chosen = np.asarray(chosen, dtype=np.int64)
     if len(chosen) < 3:

@@ -39,7 +39,17 @@ from coverplan.shots.surface import OPPOSED_TERRACE
 
 @dataclass
 class Candidates:
-    """Camera poses: positions (n, 3), headings and pitches (deg), and how each was made."""
+    """Camera poses: positions (n, 3), headings and pitches (deg), and how each was made.
+
+    Parameters
+    ----------
+    positions : (n, 3) float
+        Camera centres, local frame.
+    heading_deg, pitch_deg : (n,) float
+        Orientations.
+    source : (n,) int8
+        How each was made (0 façade rings, 1 along normals, 2 probes, ...).
+    """
 
     positions: np.ndarray
     heading_deg: np.ndarray
@@ -51,33 +61,97 @@ class Candidates:
 
     @classmethod
     def empty(cls) -> "Candidates":
+        """No candidates.
+
+        Returns
+        -------
+        Candidates
+            Zero rows.
+        """
         return cls(np.zeros((0, 3)), np.zeros(0), np.zeros(0), np.zeros(0, np.int8))
 
     @classmethod
     def looking(cls, positions, view_dirs, limits: ViewLimits, source: int) -> "Candidates":
-        """Cameras at ``positions`` looking along ``view_dirs``, pitch clipped to the gimbal."""
+        """Cameras at ``positions`` looking along ``view_dirs``, pitch clipped to the gimbal.
+
+        Parameters
+        ----------
+        positions : (n, 3) float
+            Camera centres.
+        view_dirs : (n, 3) float
+            Unit view vectors.
+        limits : ViewLimits
+            Gives the gimbal range.
+        source : int
+            How they were made.
+
+        Returns
+        -------
+        Candidates
+            The cameras.
+        """
         heading, pitch = heading_pitch(view_dirs)
         pitch = np.clip(pitch, *limits.pitch_range_deg)
         return cls(np.asarray(positions, float).reshape(-1, 3), heading, pitch,
                    np.full(len(heading), source, dtype=np.int8))
 
     def concat(self, other: "Candidates") -> "Candidates":
+        """These candidates followed by ``other``.
+
+        Parameters
+        ----------
+        other : Candidates
+            More candidates.
+
+        Returns
+        -------
+        Candidates
+            A new set.
+        """
         return Candidates(np.vstack([self.positions, other.positions]),
                           np.concatenate([self.heading_deg, other.heading_deg]),
                           np.concatenate([self.pitch_deg, other.pitch_deg]),
                           np.concatenate([self.source, other.source]))
 
     def subset(self, mask) -> "Candidates":
+        """The candidates ``mask`` selects.
+
+        Parameters
+        ----------
+        mask : (n,) bool or (k,) int
+            Rows to keep.
+
+        Returns
+        -------
+        Candidates
+            A new set.
+        """
         return Candidates(self.positions[mask], self.heading_deg[mask], self.pitch_deg[mask], self.source[mask])
 
     @property
     def view_dirs(self) -> np.ndarray:
+        """(n, 3) float: unit view vectors of the headings and pitches."""
         return view_direction(self.heading_deg, self.pitch_deg)
 
 
 def standoff(camera, limits: ViewLimits, margin: float) -> float:
     """Distance from the wall for candidates: the whole frame within d_opt on a facing wall,
-    but never closer than the security distance plus margin."""
+    but never closer than the security distance plus margin.
+
+    Parameters
+    ----------
+    camera : Camera
+        The camera.
+    limits : ViewLimits
+        Security distance and d_opt.
+    margin : float
+        Metres beyond the security distance.
+
+    Returns
+    -------
+    float
+        Metres.
+    """
     nearest = limits.security + margin
     ideal = limits.d_opt / camera.corner_factor * 0.97
     return float(min(max(ideal, nearest * 1.05), limits.d_opt * 0.95))
@@ -85,7 +159,26 @@ def standoff(camera, limits: ViewLimits, margin: float) -> float:
 
 def slice_heights(scene, limits: ViewLimits, camera, distance: float, spacing: float = 0.0) -> np.ndarray:
     """Heights of the façade slices: spaced by half the vertical footprint at ``distance``
-    (never closer than the sample spacing: denser than the samples sees nothing new)."""
+    (never closer than the sample spacing: denser than the samples sees nothing new).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    limits : ViewLimits
+        The altitude band.
+    camera : Camera
+        The camera.
+    distance : float
+        The camera distance, metres.
+    spacing : float
+        The sample spacing, metres.
+
+    Returns
+    -------
+    (k,) float
+        Heights, metres.
+    """
     top = scene.bounds("target")[1, 2]
     step = max(camera.footprint(distance)[1] * 0.5, spacing)
     start = max(limits.min_z, scene.ground_z + step * 0.5)
@@ -103,7 +196,28 @@ def facade_rings(scene, camera, limits: ViewLimits, distance: float, spacing: fl
     """Cameras on the target's horizontal sections offset by ``distance``, facing the walls
     square-on and a third of the field of view either side: everywhere (``view_tilts``
     "varied"), only where the ring turns and CORNER_REACH points either side ("corners"), or
-    nowhere ("square")."""
+    nowhere ("square").
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    camera : Camera
+        The camera.
+    limits : ViewLimits
+        The viewpoint rules.
+    distance : float
+        The offset from the walls, metres.
+    spacing : float
+        The sample spacing, metres.
+    view_tilts : {"varied", "corners", "square"}
+        Where the side-looking views are made.
+
+    Returns
+    -------
+    Candidates
+        The cameras.
+    """
     if view_tilts not in VIEW_TILTS:
         raise ValueError(f"view_tilts must be one of {VIEW_TILTS}, got {view_tilts!r}")
     width = camera.footprint(distance)[0]
@@ -140,7 +254,28 @@ def facade_rings(scene, camera, limits: ViewLimits, distance: float, spacing: fl
 
 def along_normals(samples, limits: ViewLimits, camera, distance: float, tilt_deg: float = 30.0,
                   n_tilts: int = 4) -> Candidates:
-    """Cameras at ``distance`` along each thinned sample's normal and tilted about it."""
+    """Cameras at ``distance`` along each thinned sample's normal and tilted about it.
+
+    Parameters
+    ----------
+    samples : SurfaceSamples
+        The samples, thinned here.
+    limits : ViewLimits
+        The viewpoint rules.
+    camera : Camera
+        The camera.
+    distance : float
+        Metres.
+    tilt_deg : float
+        The tilt about the normal.
+    n_tilts : int
+        Tilted views per sample.
+
+    Returns
+    -------
+    Candidates
+        The cameras.
+    """
     cell = max(camera.footprint(distance)[1] * 0.35, samples.spacing)
     picked = thin(samples.points, samples.normals, cell)
     pts, nrm = samples.points[picked], samples.normals[picked]
@@ -272,7 +407,26 @@ def under_overhangs(samples, limits: ViewLimits, camera, margin: float, n_azimut
     gimbal's top pitch still frames (90 % of the way to the frame's edge), in ``n_azimuths``
     directions, to the floor or d_opt, and halfway there. With the gimbal's +30 deg that is
     an incidence of about 37 deg; ``along_normals`` and the probes left the edge strip of an
-    overhang at 43-45 deg (ring prism)."""
+    overhang at 43-45 deg (ring prism).
+
+    Parameters
+    ----------
+    samples : SurfaceSamples
+        The samples.
+    limits : ViewLimits
+        The viewpoint rules.
+    camera : Camera
+        The camera.
+    margin : float
+        Metres beyond the security distance.
+    n_azimuths : int
+        Directions per sample.
+
+    Returns
+    -------
+    Candidates
+        The cameras.
+    """
     down = np.flatnonzero(samples.kind == OPPOSED_TERRACE)
     if len(down) == 0:
         return Candidates.empty()
@@ -303,6 +457,28 @@ def from_probes(scene, samples, needy, limits: ViewLimits, per_sample: int = 8,
 
     The cone reaches out to the incidence limit, as the evaluator's reachability does: these
     are the samples only grazing views can reach.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    samples : SurfaceSamples
+        The samples.
+    needy : (k,) int
+        The samples that need views.
+    limits : ViewLimits
+        The viewpoint rules.
+    per_sample : int
+        The most cameras per sample.
+    n_directions : int
+        Probe directions.
+    range_fractions : sequence of float
+        Shares of d_opt probed along each direction.
+
+    Returns
+    -------
+    Candidates
+        The cameras.
     """
     needy = np.asarray(needy, dtype=np.int64)
     if len(needy) == 0:
@@ -327,6 +503,32 @@ def around_views(scene, samples, owner, cameras, limits: ViewLimits, tilts_deg=(
     viewpoints of a sample fill a cone a few degrees wide (a wall foot seen only between two
     obstacles), the reachability probes' cone, 8 degrees between neighbours at 192
     directions, rarely puts two of them inside; a second view 5 degrees off the first does.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    samples : SurfaceSamples
+        The samples.
+    owner : (k,) int
+        The sample each known camera images.
+    cameras : (k, 3) float
+        Known camera centres.
+    limits : ViewLimits
+        The viewpoint rules.
+    tilts_deg : sequence of float
+        Cone half-angles around each known view.
+    n_azimuths : int
+        Directions per cone.
+    range_fractions : sequence of float
+        Shares of d_opt probed.
+    per_sample : int
+        The most cameras per sample.
+
+    Returns
+    -------
+    Candidates
+        The cameras.
     """
     owner = np.asarray(owner, dtype=np.int64)
     if len(owner) == 0:
@@ -355,7 +557,20 @@ def around_views(scene, samples, owner, cameras, limits: ViewLimits, tilts_deg=(
 def spread_per_owner(owner: np.ndarray, k: int) -> np.ndarray:
     """Indices keeping at most ``k`` entries per owner, evenly spread over each owner's
     entries (in their order): per owner ``np.linspace(0, n - 1, min(k, n)).astype(int)``,
-    owners ascending."""
+    owners ascending.
+
+    Parameters
+    ----------
+    owner : (n,) int
+        The owner of each entry.
+    k : int
+        The most entries per owner.
+
+    Returns
+    -------
+    (m,) int
+        Indices into ``owner``.
+    """
     order = np.argsort(owner, kind="stable")
     sorted_owner = owner[order]
     first = np.flatnonzero(np.r_[True, sorted_owner[1:] != sorted_owner[:-1]]) if len(owner) else np.zeros(0, int)
@@ -372,7 +587,24 @@ def spread_per_owner(owner: np.ndarray, k: int) -> np.ndarray:
 
 
 def keep_safe(scene, candidates: Candidates, limits: ViewLimits, margin: float) -> Candidates:
-    """Drop candidates below the minimum altitude or closer than security + margin to a mesh."""
+    """Drop candidates below the minimum altitude or closer than security + margin to a mesh.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    candidates : Candidates
+        The cameras.
+    limits : ViewLimits
+        Security distance and altitude band.
+    margin : float
+        Metres beyond the security distance.
+
+    Returns
+    -------
+    Candidates
+        The safe ones.
+    """
     if len(candidates) == 0:
         return candidates
     ok = limits.allowed(candidates.positions, tol=0.0)
@@ -448,7 +680,22 @@ def _near_turns(outward, reach: int, min_turn_deg: float = 2.0) -> np.ndarray:
 
 
 def thin(points, normals, cell: float) -> np.ndarray:
-    """Indices of one sample per (cell, normal octant): the one nearest the cell's centre."""
+    """Indices of one sample per (cell, normal octant): the one nearest the cell's centre.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Samples.
+    normals : (n, 3) float
+        Their normals.
+    cell : float
+        Metres.
+
+    Returns
+    -------
+    (k,) int
+        Indices into ``points``.
+    """
     key = np.column_stack([np.floor(points / cell).astype(np.int64), (normals > 0.3).astype(np.int64),
                            (normals < -0.3).astype(np.int64)])
     _, group = np.unique(key, axis=0, return_inverse=True)

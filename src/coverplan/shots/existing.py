@@ -22,8 +22,12 @@ EXISTING = 9  # Candidates.source of a photo already taken
 class ExistingShots:
     """Poses of photos already taken, in the scene's frame.
 
+    Parameters
+    ----------
     positions : (k, 3) float
+        Camera centres.
     heading_deg, pitch_deg : (k,) float
+        Orientations.
     source : str
         What they came from (a photo folder, a mission file), for the summary.
     """
@@ -52,11 +56,31 @@ class ExistingShots:
 
     @classmethod
     def of_route(cls, route, source: str | None = None) -> "ExistingShots":
-        """The photos of a route (or of a mission read as one), where they are taken."""
+        """The photos of a route (or of a mission read as one), where they are taken.
+
+        Parameters
+        ----------
+        route : Route
+            The route or mission.
+        source : str, optional
+            What it is; the route's own description when None.
+
+        Returns
+        -------
+        ExistingShots
+            Its photos.
+        """
         rows = route.shots
         return cls(route.flown_positions()[rows], route.heading_deg[rows], route.pitch_deg[rows],
                    source or str(route.extra.get("source", "existing route")))
 
     def candidates(self) -> Candidates:
+        """The photos as candidates of their own source, to be kept by every selection.
+
+        Returns
+        -------
+        Candidates
+            One row per photo.
+        """
         return Candidates(self.positions.copy(), self.heading_deg.copy(), self.pitch_deg.copy(),
                           np.full(len(self), EXISTING, dtype=np.int8))

@@ -39,7 +39,18 @@ _CHUNK = 2048  # cameras per batch of rays (2048 x 384 rays, ~20 MB of direction
 
 
 def facing_bins(n: int = N_BINS) -> np.ndarray:
-    """(n, 3) unit directions spread evenly over the sphere (a Fibonacci lattice)."""
+    """(n, 3) unit directions spread evenly over the sphere (a Fibonacci lattice).
+
+    Parameters
+    ----------
+    n : int
+        Directions.
+
+    Returns
+    -------
+    (n, 3) float
+        Unit vectors.
+    """
     k = np.arange(n) + 0.5
     z = 1.0 - 2.0 * k / n
     phi = np.pi * (1.0 + 5.0 ** 0.5) * k
@@ -130,7 +141,24 @@ def view_fill(fill: np.ndarray, cam: np.ndarray, pt: np.ndarray, normals: np.nda
 
 def fill_targets(pt: np.ndarray, fill: np.ndarray, n_samples: int, min_fill: float = MIN_FILL) -> np.ndarray:
     """Per sample: the fill a framed view must reach, ``min_fill`` or, where no view reaches
-    it, ``BEST_SHARE`` of the best (inf for samples no view fills at all)."""
+    it, ``BEST_SHARE`` of the best (inf for samples no view fills at all).
+
+    Parameters
+    ----------
+    pt : (m,) int
+        The sample of each view.
+    fill : (m,) float
+        The frame fill of each view.
+    n_samples : int
+        Samples.
+    min_fill : float
+        The fill asked.
+
+    Returns
+    -------
+    (n_samples,) float
+        The fill each sample's framed view must reach.
+    """
     best = np.zeros(n_samples)
     np.maximum.at(best, pt, fill)
     return np.where(best > 0, np.minimum(min_fill, BEST_SHARE * best), np.inf)
@@ -140,7 +168,26 @@ def framed_view_matrix(cam: np.ndarray, pt: np.ndarray, fill: np.ndarray, incide
                        n_samples: int, targets: np.ndarray | None = None) -> sp.csr_matrix:
     """Candidates x samples, 1 where the view is framed: it fills at least the sample's
     target (``fill_targets`` of the views within ``FRAMED_INCIDENCE_DEG``) and sees the
-    sample within ``FRAMED_INCIDENCE_DEG``."""
+    sample within ``FRAMED_INCIDENCE_DEG``.
+
+    Parameters
+    ----------
+    cam, pt : (m,) int
+        Candidate and sample of each view.
+    fill : (m,) float
+        Frame fill.
+    incidence : (m,) float
+        Degrees.
+    n_cands, n_samples : int
+        The matrix's shape.
+    targets : (n_samples,) float, optional
+        The fill per sample; ``fill_targets`` when None.
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix
+        Candidates by samples.
+    """
     square = incidence <= FRAMED_INCIDENCE_DEG
     if targets is None:
         targets = fill_targets(pt[square], fill[square], n_samples)
@@ -152,7 +199,26 @@ def short_of_framing(cam: np.ndarray, pt: np.ndarray, fill: np.ndarray, incidenc
                      views: int) -> np.ndarray:
     """(n_samples,) bool: samples with fewer than ``views`` candidate views that fill
     ``MIN_FILL`` within ``FRAMED_INCIDENCE_DEG`` (and seen at all): the ones close views
-    are made for."""
+    are made for.
+
+    Parameters
+    ----------
+    cam, pt : (m,) int
+        Candidate and sample of each view.
+    fill : (m,) float
+        Frame fill.
+    incidence : (m,) float
+        Degrees.
+    n_samples : int
+        Samples.
+    views : int
+        Framed views asked per sample.
+
+    Returns
+    -------
+    (n_samples,) bool
+        The samples short of them.
+    """
     good = (fill >= MIN_FILL) & (incidence <= FRAMED_INCIDENCE_DEG)
     seen = np.bincount(pt, minlength=n_samples) > 0
     return seen & (np.bincount(pt[good], minlength=n_samples) < views)

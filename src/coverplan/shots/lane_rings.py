@@ -37,6 +37,21 @@ def smooth_walk(ring_and_kind, section, step: float, smooth_share: float = 1.0,
     photo on the corner's bisector between the walls' last and first); where the facing jumps
     (the offset's concave corners) the photos pivot in place.
 
+    Parameters
+    ----------
+    ring_and_kind : tuple
+        The offset ring, (m, 2) float, and its corners' kinds.
+    section : shapely geometry
+        The target's section the photos face.
+    step : float
+        Metres between photos along a wall.
+    smooth_share : float
+        The share of corners rounded smoothly.
+    smooth_deg : float
+        The largest heading step round a smooth corner.
+    coarse_deg : float
+        The heading step round the others.
+
     Returns
     -------
     xy : (k, 2) float
@@ -89,6 +104,13 @@ def ring_lane(xy: np.ndarray, away: np.ndarray):
     convex corner that turns by ``PIECE_TURN_DEG`` or more (a wall or a run of walls between two
     such corners a piece), so that the cover can take a part of a ring where the rest sees
     nothing new. The photos start at a cut and end with the first photo again.
+
+    Parameters
+    ----------
+    xy : (k, 2) float
+        Photos in walking order.
+    away : (k, 2) float
+        Unit vectors from the section towards each photo.
 
     Returns
     -------

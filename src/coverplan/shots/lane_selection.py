@@ -106,7 +106,20 @@ def _close_rings(lanes: Lanes, taken: np.ndarray) -> np.ndarray:
 
 def ring_pairs(lanes: Lanes, rows: np.ndarray) -> np.ndarray:
     """(k, 2) int: pairs of ``rows`` (lane photos) flown one after the other: consecutive rows of
-    one lane, and round a ring, its last photo before the repeated first and the first."""
+    one lane, and round a ring, its last photo before the repeated first and the first.
+
+    Parameters
+    ----------
+    lanes : Lanes
+        The lanes.
+    rows : (k,) int
+        Chosen lane photos.
+
+    Returns
+    -------
+    (m, 2) int
+        Pairs of rows.
+    """
     chosen = np.zeros(len(lanes), dtype=bool)
     chosen[np.asarray(rows, dtype=np.int64)] = True
     pairs = lanes.neighbours()

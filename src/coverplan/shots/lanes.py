@@ -50,7 +50,7 @@ class Lanes:
     """Lane photos, the lane each belongs to, in flight order within each lane, and the pieces
     of lanes the cover chooses from.
 
-    Attributes
+    Parameters
     ----------
     cands : Candidates
         The photos, ``source`` ``LANE_SOURCE``; a lane's photos are consecutive rows.
@@ -72,6 +72,7 @@ class Lanes:
 
     @property
     def count(self) -> int:
+        """How many lanes."""
         return int(self.lane.max()) + 1 if len(self.lane) else 0
 
     def __len__(self) -> int:
@@ -79,12 +80,32 @@ class Lanes:
 
     @classmethod
     def empty(cls) -> Lanes:
+        """No lanes.
+
+        Returns
+        -------
+        Lanes
+            Zero photos.
+        """
         return cls(Candidates.empty(), np.zeros(0, dtype=np.int64), np.zeros((0, 3), dtype=np.int64),
                    np.zeros(0, dtype=bool))
 
     @classmethod
     def runs(cls, cands: Candidates, lane: np.ndarray) -> Lanes:
-        """Lanes of one piece each, not closed."""
+        """Lanes of one piece each, not closed.
+
+        Parameters
+        ----------
+        cands : Candidates
+            The photos, each lane's consecutive.
+        lane : (n,) int
+            The lane of each photo.
+
+        Returns
+        -------
+        Lanes
+            The lanes.
+        """
         lane = np.asarray(lane, dtype=np.int64)
         n = int(lane.max()) + 1 if len(lane) else 0
         first = np.searchsorted(lane, np.arange(n))
@@ -92,13 +113,36 @@ class Lanes:
                    np.zeros(n, dtype=bool))
 
     def concat(self, other: Lanes) -> Lanes:
+        """These lanes followed by ``other``'s, renumbered after them.
+
+        Parameters
+        ----------
+        other : Lanes
+            More lanes.
+
+        Returns
+        -------
+        Lanes
+            A new set.
+        """
         shift = np.array([self.count, len(self), len(self)])
         return Lanes(self.cands.concat(other.cands), np.concatenate([self.lane, other.lane + self.count]),
                      np.vstack([self.pieces, other.pieces + shift]), np.concatenate([self.closed, other.closed]))
 
     def subset(self, keep: np.ndarray) -> Lanes:
         """The photos ``keep`` (bool, (n,)): a lane, and each of its pieces, split where a photo
-        was dropped; a ring that loses a photo is no longer closed."""
+        was dropped; a ring that loses a photo is no longer closed.
+
+        Parameters
+        ----------
+        keep : (n,) bool
+            Photos to keep.
+
+        Returns
+        -------
+        Lanes
+            A new set, or this one when every photo is kept.
+        """
         keep = np.asarray(keep, dtype=bool)
         if not keep.any():
             return Lanes.empty()
@@ -121,14 +165,37 @@ class Lanes:
         return Lanes(self.cands.subset(rows), lane, np.array(pieces, dtype=np.int64).reshape(-1, 3), closed)
 
     def neighbours(self) -> np.ndarray:
-        """(k, 2) int: rows of consecutive photos of one lane."""
+        """(k, 2) int: rows of consecutive photos of one lane.
+
+        Returns
+        -------
+        (k, 2) int
+            Row pairs.
+        """
         same = np.flatnonzero(self.lane[1:] == self.lane[:-1])
         return np.column_stack([same, same + 1])
 
 
 def lane_steps(camera, distance: float, forward_overlap: float = FORWARD_OVERLAP,
                side_overlap: float = SIDE_OVERLAP) -> tuple[float, float]:
-    """Photo spacing along a façade lane and band spacing across, m, at ``distance``."""
+    """Photo spacing along a façade lane and band spacing across, m, at ``distance``.
+
+    Parameters
+    ----------
+    camera : Camera
+        The camera.
+    distance : float
+        Metres.
+    forward_overlap : float
+        The share of a frame's width consecutive photos share.
+    side_overlap : float
+        The share of its height neighbouring bands share.
+
+    Returns
+    -------
+    step, band : float
+        Metres.
+    """
     width, height = camera.footprint(distance)
     return width * (1.0 - forward_overlap), height * (1.0 - side_overlap)
 
@@ -139,7 +206,26 @@ BAND_MARGIN = 0.1  # the lowest and highest bands' frames reach past the wall's 
 def band_heights(ground_z: float, top: float, frame_height: float, band: float, min_z: float) -> np.ndarray:
     """Heights of the façade bands: as few as cover the walls from their foot to ``top`` with
     ``BAND_MARGIN`` of the frame to spare at either end, no further apart than ``band``,
-    evenly spread, none below ``min_z``."""
+    evenly spread, none below ``min_z``.
+
+    Parameters
+    ----------
+    ground_z : float
+        The walls' foot, metres.
+    top : float
+        Their top, metres.
+    frame_height : float
+        The frame's height on the wall, metres.
+    band : float
+        The largest spacing, metres.
+    min_z : float
+        The lowest height allowed, metres.
+
+    Returns
+    -------
+    (k,) float
+        Heights, metres.
+    """
     margin = BAND_MARGIN * frame_height
     lo, hi = ground_z + 0.5 * frame_height - margin, top - 0.5 * frame_height + margin
     if hi <= lo:
@@ -222,10 +308,22 @@ def courtyard_lanes(scene, camera, limits: ViewLimits, offset: float, distance: 
 
     Parameters
     ----------
+    scene : Scene
+        The scene.
+    camera : Camera
+        The camera.
+    limits : ViewLimits
+        The viewpoint rules.
     offset : float
         How far from the nearest wall the lanes run, m.
     distance : float
         The standoff, m: the bands are spaced for the frame there.
+    forward_overlap : float
+        The share of a frame's width consecutive photos share.
+    side_overlap : float
+        The share of its height neighbouring bands share.
+    smooth_share : float
+        The share of corners rounded in smooth steps.
 
     Returns
     -------
@@ -262,8 +360,20 @@ def roof_lanes(scene, samples, camera, limits: ViewLimits, distance: float, forw
 
     Parameters
     ----------
+    scene : Scene
+        The scene.
     samples : SurfaceSamples
         The planner's samples; those whose normal has z >= ``ROOF_NORMAL_Z`` are roof.
+    camera : Camera
+        The camera.
+    limits : ViewLimits
+        The viewpoint rules.
+    distance : float
+        Metres above the roof.
+    forward_overlap : float
+        The share of a frame consecutive photos share.
+    side_overlap : float
+        The share of a frame neighbouring lanes share.
 
     Returns
     -------
@@ -307,7 +417,24 @@ def roof_lanes(scene, samples, camera, limits: ViewLimits, distance: float, forw
 
 
 def safe_lanes(scene, lanes: Lanes, limits: ViewLimits, margin: float) -> Lanes:
-    """``keep_safe`` on lane photos: a lane is cut where a photo is not safe."""
+    """``keep_safe`` on lane photos: a lane is cut where a photo is not safe.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    lanes : Lanes
+        The lanes.
+    limits : ViewLimits
+        Security distance and altitude band.
+    margin : float
+        Metres beyond the security distance.
+
+    Returns
+    -------
+    Lanes
+        The safe pieces.
+    """
     if len(lanes) == 0:
         return lanes
     tagged = Candidates(lanes.cands.positions, lanes.cands.heading_deg, lanes.cands.pitch_deg,

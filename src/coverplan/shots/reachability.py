@@ -21,7 +21,20 @@ GROUND = -2  # culprit index meaning the ground plane
 
 
 def cone_directions(half_angle_deg: float, count: int) -> np.ndarray:
-    """``count`` unit vectors spread over the cap of half-angle ``half_angle_deg`` about +z."""
+    """``count`` unit vectors spread over the cap of half-angle ``half_angle_deg`` about +z.
+
+    Parameters
+    ----------
+    half_angle_deg : float
+        The cap's half-angle.
+    count : int
+        Directions.
+
+    Returns
+    -------
+    (count, 3) float
+        Unit vectors, +z first.
+    """
     k = np.arange(count) + 0.5
     cos_min = np.cos(np.radians(half_angle_deg))
     z = 1.0 - (1.0 - cos_min) * k / count
@@ -32,7 +45,18 @@ def cone_directions(half_angle_deg: float, count: int) -> np.ndarray:
 
 
 def tangent_frames(normals) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit tangents per normal, so (t1, t2, n) is right-handed."""
+    """Two unit tangents per normal, so (t1, t2, n) is right-handed.
+
+    Parameters
+    ----------
+    normals : (n, 3) float
+        Unit normals.
+
+    Returns
+    -------
+    t1, t2 : (n, 3) float
+        Unit tangents.
+    """
     normals = np.asarray(normals, dtype=float)
     helper = np.where(np.abs(normals[:, 2:3]) < 0.9, [[0.0, 0.0, 1.0]], [[1.0, 0.0, 0.0]])
     t1 = np.cross(helper, normals)
@@ -42,7 +66,33 @@ def tangent_frames(normals) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass
 class ViewLimits:
-    """What a viewpoint must satisfy, shared by the evaluator and the planner."""
+    """What a viewpoint must satisfy, shared by the evaluator and the planner.
+
+    Parameters
+    ----------
+    security : float
+        The security distance, metres.
+    d_opt : float
+        The optimal distance, metres.
+    max_incidence_deg : float
+        The largest incidence a view may have.
+    min_z : float
+        The lowest height the drone may fly at (the lowest floor over terrain), metres.
+    pitch_range_deg : (float, float)
+        The gimbal's lowest and highest pitch.
+    vfov_deg : float
+        The camera's vertical field of view.
+    ground_z : float
+        The flat ground's height.
+    terrain : Terrain, optional
+        The ground, when not flat.
+    envelope : Terrain, optional
+        Over terrain, the lowest heights ``security`` clear of the ground in 3D.
+    max_altitude : float
+        The ceiling, metres above the ground under the drone.
+    zones : Zones
+        Keep-out and keep-in prisms.
+    """
 
     security: float
     d_opt: float
@@ -60,15 +110,38 @@ class ViewLimits:
 
     @property
     def min_altitude(self) -> float:
+        """The minimum altitude above the ground, metres."""
         return self.min_z - self.ground_z
 
     def ground_at(self, xy) -> np.ndarray:
-        """Ground height under each (x, y)."""
+        """Ground height under each (x, y).
+
+        Parameters
+        ----------
+        xy : (n, 2) float
+            Local coordinates.
+
+        Returns
+        -------
+        (n,) float
+            Metres.
+        """
         xy = np.asarray(xy, dtype=float).reshape(-1, 2)
         return self.terrain.height(xy) if self.terrain is not None else np.full(len(xy), self.ground_z)
 
     def floor_at(self, xy) -> np.ndarray:
-        """The lowest height the drone may fly at over each (x, y)."""
+        """The lowest height the drone may fly at over each (x, y).
+
+        Parameters
+        ----------
+        xy : (n, 2) float
+            Local coordinates.
+
+        Returns
+        -------
+        (n,) float
+            Metres.
+        """
         xy = np.asarray(xy, dtype=float).reshape(-1, 2)
         if self.terrain is None:
             return np.full(len(xy), self.min_z)
@@ -76,13 +149,40 @@ class ViewLimits:
         return floor if self.envelope is None else np.maximum(floor, self.envelope.height(xy))
 
     def above_floor(self, points, tol: float = 1e-9) -> np.ndarray:
+        """Whether each point keeps the minimum altitude.
+
+        Parameters
+        ----------
+        points : (n, 3) float
+            Local coordinates.
+        tol : float
+            Metres.
+
+        Returns
+        -------
+        (n,) bool
+            True at or above the floor.
+        """
         points = np.asarray(points, dtype=float).reshape(-1, 3)
         return points[:, 2] >= self.floor_at(points[:, :2]) - tol
 
     def segments_above_floor(self, starts, ends, tol: float = 1e-6) -> np.ndarray:
         """Whether every point of each segment keeps the minimum altitude (over flat ground the
         ends settle it; over terrain every crossing of the ground's grid is checked) and, over
-        terrain, the security distance from the ground in 3D."""
+        terrain, the security distance from the ground in 3D.
+
+        Parameters
+        ----------
+        starts, ends : (n, 3) float
+            The segments.
+        tol : float
+            Metres.
+
+        Returns
+        -------
+        (n,) bool
+            Segments that keep it.
+        """
         starts = np.asarray(starts, dtype=float).reshape(-1, 3)
         ends = np.asarray(ends, dtype=float).reshape(-1, 3)
         if self.terrain is None:
@@ -93,6 +193,20 @@ class ViewLimits:
         return ok
 
     def below_ceiling(self, points, tol: float = 1e-9) -> np.ndarray:
+        """Whether each point is at most ``max_altitude`` above the ground under it.
+
+        Parameters
+        ----------
+        points : (n, 3) float
+            Local coordinates.
+        tol : float
+            Metres.
+
+        Returns
+        -------
+        (n,) bool
+            True at or below the ceiling.
+        """
         points = np.asarray(points, dtype=float).reshape(-1, 3)
         if not np.isfinite(self.max_altitude):
             return np.ones(len(points), dtype=bool)
@@ -100,7 +214,20 @@ class ViewLimits:
 
     def allowed(self, points, tol: float = 1e-9) -> np.ndarray:
         """Where the drone may be: above the floor, below the ceiling, outside every keep-out
-        zone and inside the keep-in region."""
+        zone and inside the keep-in region.
+
+        Parameters
+        ----------
+        points : (n, 3) float
+            Local coordinates.
+        tol : float
+            Metres.
+
+        Returns
+        -------
+        (n,) bool
+            Allowed points.
+        """
         ok = self.above_floor(points, tol) & self.below_ceiling(points, tol)
         if self.zones and ok.any():
             ok[ok] = self.zones.points_allowed(np.asarray(points, dtype=float).reshape(-1, 3)[ok])
@@ -108,7 +235,20 @@ class ViewLimits:
 
     def segments_below_ceiling(self, starts, ends, tol: float = 1e-6) -> np.ndarray:
         """Whether every point of each segment stays below the ceiling (over flat ground the
-        ends settle it; over terrain every crossing of the ground's grid is checked)."""
+        ends settle it; over terrain every crossing of the ground's grid is checked).
+
+        Parameters
+        ----------
+        starts, ends : (n, 3) float
+            The segments.
+        tol : float
+            Metres.
+
+        Returns
+        -------
+        (n,) bool
+            Segments that keep it.
+        """
         starts = np.asarray(starts, dtype=float).reshape(-1, 3)
         ends = np.asarray(ends, dtype=float).reshape(-1, 3)
         if not np.isfinite(self.max_altitude):
@@ -120,7 +260,20 @@ class ViewLimits:
 
     def segments_allowed(self, starts, ends, tol: float = 1e-6) -> np.ndarray:
         """Whether every point of each segment keeps above the floor and below the ceiling,
-        out of every keep-out zone and in the keep-in region."""
+        out of every keep-out zone and in the keep-in region.
+
+        Parameters
+        ----------
+        starts, ends : (n, 3) float
+            The segments.
+        tol : float
+            Metres.
+
+        Returns
+        -------
+        (n,) bool
+            Allowed segments.
+        """
         starts = np.asarray(starts, dtype=float).reshape(-1, 3)
         ends = np.asarray(ends, dtype=float).reshape(-1, 3)
         ok = self.segments_above_floor(starts, ends, tol)
@@ -131,13 +284,35 @@ class ViewLimits:
         return ok
 
     def lowest_floor(self, lo_xy, hi_xy) -> float:
-        """The lowest the drone may fly anywhere over the box [lo_xy, hi_xy]."""
+        """The lowest the drone may fly anywhere over the box [lo_xy, hi_xy].
+
+        Parameters
+        ----------
+        lo_xy, hi_xy : (2,) float
+            The box's corners.
+
+        Returns
+        -------
+        float
+            Metres.
+        """
         if self.terrain is None:
             return self.min_z
         return self.terrain.lowest_in(np.asarray(lo_xy)[:2], np.asarray(hi_xy)[:2]) + self.min_altitude
 
     def elevation_ok(self, rays) -> np.ndarray:
-        """Whether the gimbal can frame a point seen along ``rays`` (point -> camera)."""
+        """Whether the gimbal can frame a point seen along ``rays`` (point -> camera).
+
+        Parameters
+        ----------
+        rays : (n, 3) float
+            Unit vectors, point to camera.
+
+        Returns
+        -------
+        (n,) bool
+            Framable rays.
+        """
         elevation = -np.degrees(np.arcsin(np.clip(rays[:, 2], -1, 1)))  # of the point, from the camera
         lo, hi = self.pitch_range_deg
         half = self.vfov_deg / 2.0
@@ -146,7 +321,30 @@ class ViewLimits:
 
 def probe_positions(points, normals, sample_index, limits: ViewLimits, directions: np.ndarray,
                     range_fractions) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Probe positions for the given samples: (sample index, position, unit ray) per probe."""
+    """Probe positions for the given samples: (sample index, position, unit ray) per probe.
+
+    Parameters
+    ----------
+    points, normals : (n, 3) float
+        Samples.
+    sample_index : (k,) int
+        The samples probed.
+    limits : ViewLimits
+        Gives d_opt.
+    directions : (m, 3) float
+        Probe directions in each sample's tangent frame.
+    range_fractions : sequence of float
+        Shares of d_opt.
+
+    Returns
+    -------
+    owner : (p,) int
+        The sample of each probe.
+    positions : (p, 3) float
+        Probe positions.
+    rays : (p, 3) float
+        Unit rays, sample to probe.
+    """
     sample_index = np.asarray(sample_index, dtype=np.int64)
     t1, t2 = tangent_frames(normals[sample_index])
     n = normals[sample_index]
@@ -160,7 +358,30 @@ def probe_positions(points, normals, sample_index, limits: ViewLimits, direction
 
 
 def test_probes(scene, points, normals, owner, positions, rays, limits: ViewLimits):
-    """Status per probe (OK / LOW / GIMBAL / OCCLUDED / UNSAFE) and the mesh that caused it."""
+    """Status per probe (OK / LOW / GIMBAL / OCCLUDED / UNSAFE) and the mesh that caused it.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    points, normals : (n, 3) float
+        Samples.
+    owner : (p,) int
+        The sample of each probe.
+    positions : (p, 3) float
+        Probe positions.
+    rays : (p, 3) float
+        Unit rays, sample to probe.
+    limits : ViewLimits
+        The viewpoint rules.
+
+    Returns
+    -------
+    status : (p,) int
+        OK, LOW, GIMBAL, OCCLUDED or UNSAFE.
+    culprit : (p,) int
+        The mesh that blocked or came too close, -1 where none.
+    """
     status = np.full(len(positions), OK, dtype=np.int8)
     culprit = np.full(len(positions), -1, dtype=np.int64)
     # The gimbal first: a probe the gimbal cannot aim from is GIMBAL at any altitude, so LOW
@@ -198,7 +419,34 @@ def scene_limits(scene, *, security: float, d_opt: float, max_incidence_deg: flo
                 pitch_range_deg, vfov_deg: float, max_altitude: float | None = None,
                 zones: Zones = Zones()) -> ViewLimits:
     """The limits over this scene's ground: flat at ``scene.ground_z``, or its terrain (then
-    ``min_z`` is the lowest floor near the target and the floor follows the ground)."""
+    ``min_z`` is the lowest floor near the target and the floor follows the ground).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    security : float
+        Metres.
+    d_opt : float
+        Metres.
+    max_incidence_deg : float
+        Degrees.
+    min_altitude : float
+        Metres above the ground.
+    pitch_range_deg : (float, float)
+        The gimbal's range.
+    vfov_deg : float
+        The camera's vertical field of view.
+    max_altitude : float, optional
+        The ceiling above the ground.
+    zones : Zones
+        Keep-out and keep-in prisms.
+
+    Returns
+    -------
+    ViewLimits
+        The limits.
+    """
     ground = float(scene.ground_z)
     if scene.terrain is not None:
         lo, hi = scene.bounds("target")
@@ -212,12 +460,32 @@ def scene_limits(scene, *, security: float, d_opt: float, max_incidence_deg: flo
 
 @dataclass
 class Reachability:
+    """Which samples some safe viewpoint can image, and why not for the others.
+
+    Parameters
+    ----------
+    reachable : (n,) bool
+        Per sample.
+    reason : list of str
+        Per sample: empty when reachable, else why not.
+    """
     reachable: np.ndarray  # bool per sample
     reason: list  # per sample: "" when reachable, else why not
 
     def with_witnesses(self, imaged: np.ndarray) -> "Reachability":
         """Also reachable: samples some known safe viewpoint images (the probes only sample
-        the positions, so a real viewpoint can prove one they missed)."""
+        the positions, so a real viewpoint can prove one they missed).
+
+        Parameters
+        ----------
+        imaged : (n,) bool
+            Samples a safe viewpoint images.
+
+        Returns
+        -------
+        Reachability
+            A new verdict.
+        """
         found = np.asarray(imaged, dtype=bool) & ~self.reachable
         reason = [("" if f else r) for f, r in zip(found, self.reason)]
         return Reachability(self.reachable | found, reason)
@@ -226,7 +494,28 @@ class Reachability:
 def reachability(scene, samples, limits: ViewLimits, n_directions: int = 48,
                  range_fractions=(0.1, 0.4, 0.7, 1.0), known=None) -> Reachability:
     """Which samples some safe position within d_opt can image, and why not for the rest.
-    Samples ``known`` to be reachable (a safe viewpoint images them) are not probed."""
+    Samples ``known`` to be reachable (a safe viewpoint images them) are not probed.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    samples : SurfaceSamples
+        The samples.
+    limits : ViewLimits
+        The viewpoint rules.
+    n_directions : int
+        Probe directions per sample.
+    range_fractions : sequence of float
+        Shares of d_opt probed.
+    known : (n,) bool, optional
+        Samples already known to be reachable.
+
+    Returns
+    -------
+    Reachability
+        The verdict.
+    """
     points, normals = samples.points, samples.normals
     n = len(points)
     reachable = np.zeros(n, dtype=bool) if known is None else np.array(known, dtype=bool)
@@ -254,7 +543,24 @@ def reachability(scene, samples, limits: ViewLimits, n_directions: int = 48,
 
 def explain(scene, status, culprit, zones: Zones = Zones()) -> str:
     """One line saying why none of a sample's probes worked (a zone first: without it the
-    sample would be reachable)."""
+    sample would be reachable).
+
+    Parameters
+    ----------
+    scene : Scene
+        Names the meshes.
+    status : (m,) int
+        The sample's probes' status.
+    culprit : (m,) int
+        Their culprits.
+    zones : Zones
+        Zones, checked first.
+
+    Returns
+    -------
+    str
+        The reason.
+    """
     def most_common(mask):
         c = culprit[mask & (culprit != -1)]
         if len(c) == 0:

@@ -42,7 +42,25 @@ FACE_BINS = 64
 
 @dataclass(frozen=True)
 class MatchRule:
-    """When SfM can be expected to match two photos, and what every photo needs."""
+    """When SfM can be expected to match two photos, and what every photo needs.
+
+    Parameters
+    ----------
+    max_pair_deg : float
+        The widest angle between two views SfM is expected to match.
+    min_overlap : float
+        The least share of a photo's surface two linked photos share.
+    min_neighbours : int
+        Links every photo needs.
+    sharp_views : int
+        Views per sample at its sharp incidence; 0 asks none.
+    framed_views : int
+        Views per sample that its face fills; 0 asks none.
+    braced : bool
+        No photo the links hang on.
+    link_test : {"centroid", "faces", "samples"}
+        How the shared surface's rays are judged.
+    """
 
     max_pair_deg: float = 35.0
     min_overlap: float = 0.3
@@ -104,7 +122,26 @@ def _products(va: sp.csr_matrix, vb: sp.csr_matrix, points: np.ndarray):
 def shot_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray,
                rule: MatchRule = MatchRule(), normals: np.ndarray | None = None) -> np.ndarray:
     """Boolean (n, n) matrix: which of the n cameras (rows of ``vis``) SfM should match.
-    ``normals`` (samples x 3): needed by the "faces" and "samples" link tests."""
+    ``normals`` (samples x 3): needed by the "faces" and "samples" link tests.
+
+    Parameters
+    ----------
+    vis : scipy.sparse.csr_matrix
+        Cameras by samples.
+    positions : (n, 3) float
+        Camera centres.
+    points : (m, 3) float
+        Samples.
+    rule : MatchRule
+        The matching rule.
+    normals : (m, 3) float, optional
+        Sample normals.
+
+    Returns
+    -------
+    (n, n) bool
+        Links.
+    """
     if rule.link_test in ("faces", "samples"):
         return candidate_links(vis, positions, points, rule, normals=normals).toarray() > 0
     vis = sp.csr_matrix(vis, dtype=float)
@@ -134,6 +171,11 @@ def cut_shots(links: sp.spmatrix) -> np.ndarray:
 
 def depth_first(links: sp.spmatrix) -> dict:
     """Tarjan's depth-first search of the symmetric ``links`` (n, n), on an explicit stack.
+
+    Parameters
+    ----------
+    links : scipy.sparse.spmatrix
+        Symmetric links.
 
     Returns
     -------
@@ -191,7 +233,20 @@ def depth_first(links: sp.spmatrix) -> dict:
 
 
 def graph_summary(links: np.ndarray, rule: MatchRule = MatchRule()) -> dict:
-    """Neighbour counts and connected pieces of a link matrix, as the reports state them."""
+    """Neighbour counts and connected pieces of a link matrix, as the reports state them.
+
+    Parameters
+    ----------
+    links : (n, n) bool
+        Links.
+    rule : MatchRule
+        Gives ``min_neighbours``.
+
+    Returns
+    -------
+    dict
+        Shots, components, largest component, shots short of neighbours, cut shots.
+    """
     n = len(links)
     if n == 0:
         return {"shots": 0, "components": 0, "largest_component": 0, "shots_short_of_neighbours": 0,
@@ -214,7 +269,28 @@ def candidate_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarra
 
     Whether two rows link depends on those two rows alone, to the last bit (each sum runs over
     their shared samples in column order), so links worked out for any subset of rows agree
-    with the whole graph's."""
+    with the whole graph's.
+
+    Parameters
+    ----------
+    vis : scipy.sparse.csr_matrix
+        Candidates by samples.
+    positions : (n, 3) float
+        Candidate centres.
+    points : (m, 3) float
+        Samples.
+    rule : MatchRule
+        The matching rule.
+    rows : (k,) int, optional
+        Only links with one of these rows at an end.
+    normals : (m, 3) float, optional
+        Sample normals.
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix
+        (n, n) links.
+    """
     vis = sp.csr_matrix(vis, dtype=float)
     n = vis.shape[0]
     rows = np.arange(n) if rows is None else np.asarray(rows, dtype=np.int64)
@@ -262,7 +338,20 @@ def _shared_entries(mine: sp.csr_matrix, rows: np.ndarray, vt: sp.csc_matrix, po
 
 
 def face_groups(normals: np.ndarray, bins: int = FACE_BINS) -> np.ndarray:
-    """(n,) int: the ``facing_bins`` direction nearest each normal (n, 3)."""
+    """(n,) int: the ``facing_bins`` direction nearest each normal (n, 3).
+
+    Parameters
+    ----------
+    normals : (n, 3) float
+        Unit normals.
+    bins : int
+        Directions.
+
+    Returns
+    -------
+    (n,) int
+        Direction indices.
+    """
     from coverplan.shots.framing import facing_bins
     return np.argmax(np.asarray(normals, dtype=float).reshape(-1, 3) @ facing_bins(bins).T, axis=1)
 
@@ -367,7 +456,28 @@ def extend_links(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray, 
                  known: sp.csr_matrix, normals: np.ndarray | None = None) -> sp.csr_matrix:
     """``candidate_links`` of every row of ``vis`` when ``known`` holds those among its first
     ``known.shape[0]`` rows: only the other rows' links are worked out (the same graph, as a
-    link depends on its two rows alone)."""
+    link depends on its two rows alone).
+
+    Parameters
+    ----------
+    vis : scipy.sparse.csr_matrix
+        Candidates by samples.
+    positions : (n, 3) float
+        Candidate centres.
+    points : (m, 3) float
+        Samples.
+    rule : MatchRule
+        The matching rule.
+    known : scipy.sparse.csr_matrix
+        The links of the first rows.
+    normals : (m, 3) float, optional
+        Sample normals.
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix
+        (n, n) links.
+    """
     n = vis.shape[0]
     old = known.tocoo()
     links = (candidate_links(vis, positions, points, rule, rows=np.arange(known.shape[0], n), normals=normals)
@@ -390,6 +500,30 @@ def connect_shots(vis: sp.csr_matrix, positions: np.ndarray, points: np.ndarray,
     the grown piece (a Steiner-tree heuristic: later chains run through earlier ones). Neither
     is the shorter on every scene, so for a lean rule (``MatchRule.lean``) both run and the one
     adding fewer shots is kept; otherwise the first alone.
+
+    Parameters
+    ----------
+    vis : scipy.sparse.csr_matrix
+        Candidates by samples.
+    positions : (n, 3) float
+        Candidate centres.
+    points : (m, 3) float
+        Samples.
+    chosen : (k,) int
+        Chosen candidates.
+    rule : MatchRule
+        The matching rule.
+    max_added : int, optional
+        The most candidates added.
+    links : scipy.sparse.csr_matrix, optional
+        The candidates' links.
+    normals : (m, 3) float, optional
+        Sample normals.
+
+    Returns
+    -------
+    (j,) int
+        ``chosen`` and the candidates added.
     """
     chosen = [int(j) for j in chosen]
     if len(chosen) < 2:

@@ -34,7 +34,15 @@ TRIM_SPARE_VIEWS = 1
 @dataclass
 class SharpViews:
     """Sharp views to keep: ``views`` (candidate x sample, 1 where the view is sharp) and how
-    many each sample needs."""
+    many each sample needs.
+
+    Parameters
+    ----------
+    views : scipy.sparse.csr_matrix
+        Candidates by samples, 1 where the view is sharp.
+    wanted : int
+        Sharp views each sample needs.
+    """
 
     views: sp.csr_matrix
     wanted: int
@@ -43,7 +51,23 @@ class SharpViews:
 @dataclass
 class CheckViews:
     """The views counted on the check samples (candidate ``who`` images sample ``pt`` along the
-    unit ``rays``, sample to camera), which samples they cover, and the rule they are judged by."""
+    unit ``rays``, sample to camera), which samples they cover, and the rule they are judged by.
+
+    Parameters
+    ----------
+    who, pt : (m,) int
+        Candidate and check sample of each view.
+    rays : (m, 3) float
+        Unit rays, sample to camera.
+    covered : (n,) bool
+        The samples covered.
+    min_views : int
+        Views a sample needs.
+    min_triangulation_deg : float
+        The least angle of a triangulating pair.
+    max_pair_deg : float or None
+        The widest angle of a matching pair.
+    """
 
     who: np.ndarray
     pt: np.ndarray
@@ -62,7 +86,32 @@ def drop_redundant(chosen: np.ndarray, views: CheckViews, sharp: list[SharpViews
     booleans, which chosen shots SfM will match (``shot_links``). ``keep``: candidate indices
     never dropped (photos already taken). ``braced``: no shot is dropped whose loss makes
     another a cut shot (``bracing.py``). ``spare_views``: the check samples a dropped shot
-    covered keep that many views more than the rule asks."""
+    covered keep that many views more than the rule asks.
+
+    Parameters
+    ----------
+    chosen : (k,) int
+        Candidate indices, in the order picked.
+    views : CheckViews
+        The views on the check samples.
+    sharp : list of SharpViews
+        Sharp views to keep.
+    links : (k, k) bool, optional
+        Which chosen shots SfM will match.
+    min_neighbours : int
+        Links each shot keeps.
+    keep : (j,) int, optional
+        Candidates never dropped.
+    braced : bool
+        Drop no shot whose loss makes another a cut shot.
+    spare_views : int
+        Views beyond the rule a dropped shot's samples keep.
+
+    Returns
+    -------
+    (m,) int
+        The shots kept, in ``chosen``'s order.
+    """
     chosen = np.asarray(chosen, dtype=np.int64)
     n = len(chosen)
     alive = np.ones(n, dtype=bool)
@@ -162,7 +211,30 @@ def _ranges(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
 
 def coverage_state(vis: sp.csr_matrix, rays: np.ndarray, chosen, min_views: int, min_triangulation_deg: float,
                    max_pair_deg: float | None = None):
-    """Views per sample and whether each sample is covered by the ``chosen`` candidates."""
+    """Views per sample and whether each sample is covered by the ``chosen`` candidates.
+
+    Parameters
+    ----------
+    vis : scipy.sparse.csr_matrix
+        Candidates by samples.
+    rays : (m, 3) float
+        Unit rays in ``vis.data``'s order.
+    chosen : (k,) int
+        Chosen candidates.
+    min_views : int
+        Views a sample needs.
+    min_triangulation_deg : float
+        The least angle of a triangulating pair.
+    max_pair_deg : float, optional
+        The widest angle of a matching pair.
+
+    Returns
+    -------
+    views : (n,) int
+        Views per sample.
+    covered : (n,) bool
+        Covered samples.
+    """
     _, cols, ray = _rows(vis, rays, chosen)
     views = np.bincount(cols, minlength=vis.shape[1])
     paired = has_pair_between(cols, ray, vis.shape[1], min_triangulation_deg, max_pair_deg)
@@ -173,7 +245,32 @@ def prune_redundant(vis, rays, chosen, min_views: int, min_triangulation_deg: fl
                     max_pair_deg: float | None = None, fixed: int = 0, wanted=None) -> np.ndarray:
     """Drop chosen candidates, earliest-picked last, whose removal uncovers no covered sample
     and leaves no sample without the last of its ``wanted`` views (candidates x samples, as
-    ``select_views`` takes it); the first ``fixed`` are kept whatever."""
+    ``select_views`` takes it); the first ``fixed`` are kept whatever.
+
+    Parameters
+    ----------
+    vis : scipy.sparse.csr_matrix
+        Candidates by samples.
+    rays : (m, 3) float
+        Unit rays in ``vis.data``'s order.
+    chosen : (k,) int
+        Chosen candidates, in the order picked.
+    min_views : int
+        Views a sample needs.
+    min_triangulation_deg : float
+        The least angle of a triangulating pair.
+    max_pair_deg : float, optional
+        The widest angle of a matching pair.
+    fixed : int
+        The first ``fixed`` of ``chosen`` are kept.
+    wanted : scipy.sparse.csr_matrix, optional
+        Candidates by samples, views of a kind a sample wants.
+
+    Returns
+    -------
+    (m,) int
+        The shots kept.
+    """
     keep = np.ones(len(chosen), dtype=bool)
     _views, covered = coverage_state(vis, rays, chosen, min_views, min_triangulation_deg, max_pair_deg)
     indptr, indices = vis.indptr, vis.indices

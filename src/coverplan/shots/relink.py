@@ -26,7 +26,26 @@ def relink_on_check(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse
     """``chosen`` (candidate indices) with the shots added that its links on the check samples
     need: one piece, ``rule.min_neighbours`` per photo, where a candidate that links (on the
     planner's samples, ``coarse_vis``: candidates x those samples) to a photo short of
-    neighbours, or to photos in two pieces, can give it."""
+    neighbours, or to photos in two pieces, can give it.
+
+    Parameters
+    ----------
+    problem : CoverProblem
+        The candidates and the check samples.
+    closer : GapCloser
+        Judges links on the check samples.
+    chosen : (k,) int
+        Candidate indices.
+    rule : MatchRule
+        The matching rule.
+    coarse_vis : scipy.sparse.csr_matrix
+        Candidates by the planner's samples.
+
+    Returns
+    -------
+    (m,) int
+        ``chosen`` and the shots added.
+    """
     chosen = np.asarray(chosen, dtype=np.int64)
     fine = closer.fine
     vis = check_views(closer, chosen, len(problem.cands))
@@ -55,7 +74,22 @@ def relink_on_check(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse
 
 def check_views(closer, chosen: np.ndarray, n_cands: int) -> sp.csr_matrix:
     """Which check samples each of the ``chosen`` candidates images, as the check counted
-    them: (len(chosen), check samples) ones."""
+    them: (len(chosen), check samples) ones.
+
+    Parameters
+    ----------
+    closer : GapCloser
+        Holds the check's views.
+    chosen : (k,) int
+        Candidate indices.
+    n_cands : int
+        Candidates.
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix
+        (k, check samples).
+    """
     who, at = closer.all_views()
     mine = np.isin(who, chosen)
     row_of = np.full(n_cands, -1, dtype=np.int64)
@@ -65,7 +99,22 @@ def check_views(closer, chosen: np.ndarray, n_cands: int) -> sp.csr_matrix:
 
 def new_check_views(problem, closer, extra: np.ndarray) -> sp.csr_matrix:
     """Which check samples the candidates ``extra`` (not yet judged on them) image, by the
-    evaluator's rule: (len(extra), check samples) ones."""
+    evaluator's rule: (len(extra), check samples) ones.
+
+    Parameters
+    ----------
+    problem : CoverProblem
+        The candidates.
+    closer : GapCloser
+        Holds the check samples.
+    extra : (k,) int
+        Candidate indices.
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix
+        (k, check samples).
+    """
     fine = closer.fine
     c = problem.cands.subset(extra)
     cam, pt, _ = imaging_pairs(c.positions, c.heading_deg, c.pitch_deg, problem.camera, fine.points, fine.normals,

@@ -70,7 +70,29 @@ EDGE_REASON = "at the edge of surface no safe viewpoint sees: its views are cut 
 
 @dataclass
 class CoverProblem:
-    """Samples x candidates and which candidate images which sample (with ranges)."""
+    """Samples x candidates and which candidate images which sample (with ranges).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    camera : Camera
+        The camera the rules are judged with.
+    limits : ViewLimits
+        The viewpoint rules.
+    samples : SurfaceSamples
+        The samples.
+    cands : Candidates
+        The candidates.
+    pairs : tuple of (m,) arrays
+        Candidate, sample and range of every imaging pair.
+    ball_m : float
+        From ``ball_from`` on, every view must hold within this many metres of its sample.
+    ball_from : int
+        The first sample judged as the check judges; -1 for none.
+    sight_m : float
+        And its sight from this far off the camera.
+    """
 
     scene: object
     camera: object
@@ -89,7 +111,30 @@ class CoverProblem:
                       probe_shrink: float = 0.0, ball_m: float = 0.0, sight_m: float = 0.0) -> tuple:
         """Imaging pairs, structured candidates with the margin, probes with ``probe_shrink``;
         with ``ball_m`` every view must hold around the sample too (``imaging_pairs``), with
-        ``sight_m`` its sight from that far off the camera (``seen_from_around``)."""
+        ``sight_m`` its sight from that far off the camera (``seen_from_around``).
+
+        Parameters
+        ----------
+        cands : Candidates
+            Cameras.
+        samples : SurfaceSamples
+            Samples.
+        progress : Progress, optional
+            Reports the stage.
+        probe_shrink : float
+            The frame's share cut off for probe candidates.
+        ball_m : float
+            Metres round the sample a view must hold.
+        sight_m : float
+            Metres off the camera its sight must hold.
+
+        Returns
+        -------
+        cam, pt : (m,) int
+            Candidate and sample of each pair.
+        range : (m,) float
+            Metres.
+        """
         probe = cands.source == PROBE
         offset = self.scene.epsilon * 4
         out = []
@@ -111,6 +156,13 @@ class CoverProblem:
         return tuple(np.concatenate(a) for a in zip(*out))
 
     def add_candidates(self, new: Candidates) -> None:
+        """Add candidates and their imaging pairs with every sample.
+
+        Parameters
+        ----------
+        new : Candidates
+            The candidates.
+        """
         if len(new) == 0:
             return
         if self.ball_from < 0:
@@ -126,6 +178,19 @@ class CoverProblem:
 
     def add_samples(self, new: SurfaceSamples, probe_shrink: float = 0.0, ball_m: float = 0.0,
                     sight_m: float = 0.0) -> None:
+        """Add samples and their imaging pairs with every candidate.
+
+        Parameters
+        ----------
+        new : SurfaceSamples
+            The samples.
+        probe_shrink : float
+            The frame's share cut off for probe candidates.
+        ball_m : float
+            Metres round the sample a view must hold; the samples are then judged as the check judges.
+        sight_m : float
+            Metres off the camera its sight must hold.
+        """
         if len(new) == 0:
             return
         c, p, r = self.pairs_between(self.cands, new, probe_shrink=probe_shrink, ball_m=ball_m, sight_m=sight_m)
@@ -136,13 +201,33 @@ class CoverProblem:
         self.pairs = _join(self.pairs, (c, p + base, r))
 
     def matrices(self) -> tuple[sp.csr_matrix, np.ndarray]:
-        """The visibility matrix and, in its data order, the unit rays sample -> camera."""
+        """The visibility matrix and, in its data order, the unit rays sample -> camera.
+
+        Returns
+        -------
+        vis : scipy.sparse.csr_matrix
+            Candidates by samples.
+        rays : (m, 3) float
+            Unit rays in ``vis.data``'s order.
+        """
         cam, pt, _ = self.pairs
         vis, order = visibility_matrix(len(self.cands), len(self.samples), self.pairs)
         return vis, view_rays(cam[order], pt[order], self.cands.positions, self.samples.points)
 
 
 def concat_samples(a: SurfaceSamples, b: SurfaceSamples) -> SurfaceSamples:
+    """The samples of ``a`` followed by those of ``b``.
+
+    Parameters
+    ----------
+    a, b : SurfaceSamples
+        Samples of one scene at one spacing.
+
+    Returns
+    -------
+    SurfaceSamples
+        The union.
+    """
     return SurfaceSamples(np.vstack([a.points, b.points]), np.vstack([a.normals, b.normals]),
                           np.concatenate([a.area, b.area]), np.concatenate([a.part, b.part]),
                           np.concatenate([a.kind, b.kind]), a.spacing, dict(a.left_out), a.flipped_normals)
@@ -154,7 +239,21 @@ def _join(a: tuple, b: tuple) -> tuple:
 
 @dataclass
 class FineCheck:
-    """The chosen shots judged on the check samples, as the evaluator judges a route."""
+    """The chosen shots judged on the check samples, as the evaluator judges a route.
+
+    Parameters
+    ----------
+    samples : SurfaceSamples
+        The check samples.
+    covered : (n,) bool
+        Covered samples.
+    reachable : (n,) bool
+        Reachable samples.
+    reason : (n,) str
+        Empty when reachable, else the probes' reason.
+    edge : (n,) bool, optional
+        Samples beside hidden surface judged again.
+    """
 
     samples: SurfaceSamples
     covered: np.ndarray
@@ -163,6 +262,7 @@ class FineCheck:
 
     @property
     def coverage_pct(self) -> float:
+        """The reachable surface covered, percent of its area."""
         reach = float(self.samples.area[self.reachable].sum())
         return 100.0 * float(self.samples.area[self.covered & self.reachable].sum()) / reach if reach else 0.0
 
@@ -170,6 +270,7 @@ class FineCheck:
 
     @property
     def missed(self) -> np.ndarray:
+        """(n,) bool: the samples not covered."""
         return ~self.covered
 
 
@@ -178,26 +279,87 @@ MIN_CHECK_SAMPLES = 10_000
 
 def planner_check_spacing(scene, plan_spacing: float) -> float:
     """0.25 m; finer for a small d_opt (half the planner's spacing) and for a small target
-    (at least 10,000 samples, down to 0.1 m): on a 50 m2 shed one evaluator sample is 0.1 %."""
+    (at least 10,000 samples, down to 0.1 m): on a 50 m2 shed one evaluator sample is 0.1 %.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    plan_spacing : float
+        The planner's sample spacing, metres.
+
+    Returns
+    -------
+    float
+        Metres.
+    """
     area = sum(p.mesh.area for p in scene.targets)
     small = max(float(np.sqrt(area / MIN_CHECK_SAMPLES)), 0.1)
     return min(check_spacing(scene), check_spacing(scene, plan_spacing / 2.0), check_spacing(scene, small))
 
 
 def check_samples(scene, spacing: float, surface_classes=None) -> SurfaceSamples:
-    """The planner's check samples at ``spacing`` (its own seed), of some classes or all."""
+    """The planner's check samples at ``spacing`` (its own seed), of some classes or all.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    spacing : float
+        Metres.
+    surface_classes : sequence of str, optional
+        Classes to keep.
+
+    Returns
+    -------
+    SurfaceSamples
+        The samples.
+    """
     fine = sample_surface(scene, spacing, seed=PLANNER_CHECK_SEED)
     return fine.of_classes(surface_classes) if surface_classes else fine
 
 
 def planner_check_samples(scene, route) -> SurfaceSamples:
-    """The samples the planner checked ``route``'s shots on: ``route.uncovered`` lists some."""
+    """The samples the planner checked ``route``'s shots on: ``route.uncovered`` lists some.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    route : Route
+        A planned route.
+
+    Returns
+    -------
+    SurfaceSamples
+        The samples.
+    """
     spacing = route.metrics.get("check_spacing_m") or planner_check_spacing(scene, route.params["sample_spacing_m"])
     return check_samples(scene, spacing, route.params.get("surface_classes"))
 
 
 class GapCloser:
-    """Fine check of a selection, and the new samples and candidates for what it misses."""
+    """Fine check of a selection, and the new samples and candidates for what it misses.
+
+    Parameters
+    ----------
+    problem : CoverProblem
+        The cover problem, grown by the repair.
+    min_views : int
+        Views a sample needs.
+    min_triangulation_deg : float
+        The least angle of a triangulating pair.
+    max_pair_deg : float or None
+        The widest angle of a matching pair.
+    distance : float
+        The candidates' standoff, metres.
+    margin : float
+        Metres beyond the security distance.
+    fine : SurfaceSamples
+        The check samples.
+    sight_m : float
+        Metres off the camera a view's sight must hold.
+    """
 
     def __init__(self, problem: CoverProblem, min_views: int, min_triangulation_deg: float, max_pair_deg: float | None,
                  distance: float, margin: float, fine: SurfaceSamples, sight_m: float = 0.0):
@@ -223,7 +385,18 @@ class GapCloser:
 
     def check(self, chosen: np.ndarray) -> FineCheck:
         """Judge ``chosen`` (candidate indices) on the fine samples by the evaluator's rule, each
-        view with ``CHECK_MARGIN`` to spare, so the claim also holds between these samples."""
+        view with ``CHECK_MARGIN`` to spare, so the claim also holds between these samples.
+
+        Parameters
+        ----------
+        chosen : (k,) int
+            Candidate indices.
+
+        Returns
+        -------
+        FineCheck
+            The verdict.
+        """
         chosen = np.asarray(chosen, dtype=np.int64)
         new = np.setdiff1d(chosen, self._checked)
         if len(new):
@@ -267,13 +440,37 @@ class GapCloser:
 
     def kept(self, check: FineCheck, chosen: np.ndarray) -> FineCheck:
         """``check`` for a subset ``chosen`` of its shots that covers every sample it covered
-        (``redundancy.drop_redundant`` keeps that): remembered, not worked out again."""
+        (``redundancy.drop_redundant`` keeps that): remembered, not worked out again.
+
+        Parameters
+        ----------
+        check : FineCheck
+            The check of a superset of ``chosen``.
+        chosen : (k,) int
+            Candidate indices.
+
+        Returns
+        -------
+        FineCheck
+            ``check``.
+        """
         self._last = (np.asarray(chosen, dtype=np.int64), check.covered)
         return check
 
     def enough(self, who: np.ndarray, pt: np.ndarray) -> np.ndarray:
         """Per check sample: whether the views (candidate ``who`` images sample ``pt``) are
-        enough, and hold a pair in the angle window."""
+        enough, and hold a pair in the angle window.
+
+        Parameters
+        ----------
+        who, pt : (m,) int
+            Candidate and check sample of each view.
+
+        Returns
+        -------
+        (n,) bool
+            Per check sample.
+        """
         n = len(self.fine)
         rays = view_rays(who, pt, self.p.cands.positions, self.fine.points)
         return (np.bincount(pt, minlength=n) >= self.min_views) & has_pair_between(pt, rays, n, self.min_triangulation_deg,
@@ -284,7 +481,20 @@ class GapCloser:
         also from points ``EDGE_AROUND`` x the spacing off the sample. Where what nothing safe
         sees begins (behind a tree's crown), the evaluator's samples between the last covered
         sample and the first hidden one are reachable yet lose their views: a claim of 100 %
-        stood 0.15 pp above the evaluator on a house with a crown against its wall."""
+        stood 0.15 pp above the evaluator on a house with a crown against its wall.
+
+        Parameters
+        ----------
+        check : FineCheck
+            The check.
+        chosen : (k,) int
+            Candidate indices.
+
+        Returns
+        -------
+        FineCheck
+            The check with ``edge`` set.
+        """
         hidden = ~check.reachable
         if not hidden.any():
             return check
@@ -309,7 +519,18 @@ class GapCloser:
 
     def extend(self, check: FineCheck) -> int:
         """Add the reachable missed samples not yet in the problem, with candidates for them,
-        and probe again for those already in it. Returns how many samples got candidates."""
+        and probe again for those already in it. Returns how many samples got candidates.
+
+        Parameters
+        ----------
+        check : FineCheck
+            The last check.
+
+        Returns
+        -------
+        int
+            Samples that got candidates.
+        """
         todo = np.flatnonzero(check.missed & check.reachable & (self.column < 0))
         again = np.flatnonzero(check.missed & check.reachable & (self.column >= 0))
         if len(again):
@@ -375,7 +596,22 @@ class GapCloser:
 
         Under an overhang no view reaches 35 deg (the gimbal tilts up 30 deg at most), and the
         sharp views the planner's samples 1-2 m apart asked for left the strip along the edge
-        seen at 43-44 deg: 72-76 % rebuilt there, against 91-97 % deeper in (ring prism)."""
+        seen at 43-44 deg: 72-76 % rebuilt there, against 91-97 % deeper in (ring prism).
+
+        Parameters
+        ----------
+        chosen : (k,) int
+            Candidate indices.
+        views : int
+            Sharp views per sample.
+        kinds : sequence of int
+            Surface classes judged.
+
+        Returns
+        -------
+        (m,) int
+            ``chosen`` and the shots added.
+        """
         rows = np.flatnonzero(np.isin(self.fine.kind, kinds) & self.reachable)
         if len(rows) == 0 or views <= 0:
             return chosen
@@ -391,18 +627,43 @@ class GapCloser:
 
     def all_views(self) -> tuple[np.ndarray, np.ndarray]:
         """(candidate, check sample) of every view the checks so far found, firm or not: what
-        the evaluator would count."""
+        the evaluator would count.
+
+        Returns
+        -------
+        who, pt : (m,) int
+            Candidate and check sample.
+        """
         who, pt, _firm = self._views
         return who, pt
 
     def firm_views(self) -> tuple[np.ndarray, np.ndarray]:
-        """(candidate, check sample) of every view the checks so far counted."""
+        """(candidate, check sample) of every view the checks so far counted.
+
+        Returns
+        -------
+        who, pt : (m,) int
+            Candidate and check sample.
+        """
         who, pt, firm = self._views
         return who[firm], pt[firm]
 
     def uncovered(self, check: FineCheck, lost_path: bool = False) -> list[dict]:
         """Every missed check sample with its area and why: unreachable (the probes' reason),
-        or what the candidates lack (too few views, no pair in the angle window)."""
+        or what the candidates lack (too few views, no pair in the angle window).
+
+        Parameters
+        ----------
+        check : FineCheck
+            The last check.
+        lost_path : bool
+            The shots were dropped because no safe path reaches them.
+
+        Returns
+        -------
+        list of dict
+            Position, area, part and reason per missed sample.
+        """
         self._add(np.flatnonzero(check.missed & (self.column < 0)))
         missed = np.flatnonzero(check.missed)
         cols = self.column[missed]

@@ -35,6 +35,21 @@ LP_TIME_LIMIT_S = 120.0
 
 @dataclass
 class Selection:
+    """The shots a covering selection picked and what they give each sample.
+
+    Parameters
+    ----------
+    chosen : (k,) int
+        Candidate indices, in the order picked.
+    views : (n,) int
+        Views per sample.
+    satisfied : (n,) bool
+        Samples with enough views and a pair in the angle window.
+    lp_bound : float, optional
+        The LP relaxation's optimum.
+    lp_stopped : bool
+        The LP reached its time limit.
+    """
     chosen: np.ndarray  # candidate indices, in the order picked
     views: np.ndarray  # per sample
     satisfied: np.ndarray  # per sample: enough views and a wide pair
@@ -57,6 +72,32 @@ def select_views(vis: sp.csr_matrix, rays: np.ndarray, min_views: int, min_trian
     sharp view): every sample some candidate offers one to gets one, asked of the LP and counted
     in the greedy's gains alongside the views (a candidate's gain grows by the samples it gives
     their first wanted view), and kept by the pruning.
+
+    Parameters
+    ----------
+    vis : scipy.sparse.csr_matrix
+        Candidates by samples.
+    rays : (m, 3) float
+        Unit rays in ``vis.data``'s order.
+    min_views : int
+        Views a sample needs.
+    min_triangulation_deg : float
+        The least angle of a triangulating pair.
+    lp_time_limit : float
+        Seconds.
+    progress : Progress, optional
+        Reports the stage.
+    max_pair_deg : float, optional
+        The widest angle of a matching pair.
+    preset : (j,) int, optional
+        Candidates taken first.
+    wanted : scipy.sparse.csr_matrix, optional
+        Candidates by samples, views of a kind a sample wants.
+
+    Returns
+    -------
+    Selection
+        The shots.
     """
     vis = vis.tocsr()
     vis.sort_indices()
@@ -193,7 +234,28 @@ def complete_pairs(vis: sp.csr_matrix, rays: np.ndarray, chosen, min_views: int,
 
     Per such sample (there are few: 13 of 4,200 check samples in a wall seen only between
     obstacles) the pair in the window that needs the fewest new shots, then views to make
-    up ``min_views``."""
+    up ``min_views``.
+
+    Parameters
+    ----------
+    vis : scipy.sparse.csr_matrix
+        Candidates by samples.
+    rays : (m, 3) float
+        Unit rays in ``vis.data``'s order.
+    chosen : (k,) int
+        Chosen candidates.
+    min_views : int
+        Views a sample needs.
+    min_triangulation_deg : float
+        The least angle of a triangulating pair.
+    max_pair_deg : float, optional
+        The widest angle of a matching pair.
+
+    Returns
+    -------
+    list of int
+        Candidates to add.
+    """
     n_cand, n_samp = vis.shape
     _, satisfied = coverage_state(vis, rays, chosen, min_views, min_triangulation_deg, max_pair_deg)
     open_ = np.flatnonzero(~satisfied & (np.bincount(vis.indices, minlength=n_samp) >= min_views))
@@ -242,6 +304,28 @@ def lp_relaxation(vis: sp.csr_matrix, samples, min_views: int, time_limit: float
     least ``min_views``, with 0 <= x <= 1; with ``wanted`` (candidates x samples), also the x of
     the candidates a sample wants summing to at least 1 wherever there are any. The triangulation rule is left out, so the optimum
     bounds from below the shot count of any plan covering those samples from these candidates.
+
+    Parameters
+    ----------
+    vis : scipy.sparse.csr_matrix
+        Candidates by samples.
+    samples : (n,) int
+        The samples covered.
+    min_views : int
+        Views each needs.
+    time_limit : float
+        Seconds.
+    wanted : scipy.sparse.csr_matrix, optional
+        Candidates by samples.
+
+    Returns
+    -------
+    optimum : float or None
+        The LP's optimum.
+    x : (c,) float or None
+        The LP's solution.
+    stopped : bool
+        Whether it stopped at its time limit.
     """
     from scipy.optimize import linprog
 

@@ -23,7 +23,27 @@ _MAX_DENSE = 4_000_000
 
 @dataclass
 class SurfaceSamples:
-    """Points on the target surface; each stands for ``area`` m^2 around it."""
+    """Points on the target surface; each stands for ``area`` m^2 around it.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Sample positions.
+    normals : (n, 3) float
+        Unit outward normals.
+    area : (n,) float
+        Square metres each stands for.
+    part : (n,) int
+        Index into ``Scene.parts``.
+    kind : (n,) int
+        FACADE, ROOF, TERRACE or OPPOSED_TERRACE.
+    spacing : float
+        Metres.
+    left_out : dict of str to float
+        Square metres left out, by cause.
+    flipped_normals : int
+        Samples whose face pointed inward.
+    """
 
     points: np.ndarray
     normals: np.ndarray
@@ -39,26 +59,72 @@ class SurfaceSamples:
 
     @property
     def total_area(self) -> float:
+        """Square metres of surface the samples stand for."""
         return float(self.area.sum())
 
     def subset(self, mask) -> "SurfaceSamples":
+        """The samples ``mask`` selects.
+
+        Parameters
+        ----------
+        mask : (n,) bool or (k,) int
+            Samples to keep.
+
+        Returns
+        -------
+        SurfaceSamples
+            A new set.
+        """
         return SurfaceSamples(self.points[mask], self.normals[mask], self.area[mask],
                               self.part[mask], self.kind[mask], self.spacing, dict(self.left_out),
                               self.flipped_normals)
 
     def of_classes(self, names) -> "SurfaceSamples":
-        """The samples of some classes (facade, roof, terrace, opposed_terrace)."""
+        """The samples of some classes (facade, roof, terrace, opposed_terrace).
+
+        Parameters
+        ----------
+        names : sequence of str
+            Class names.
+
+        Returns
+        -------
+        SurfaceSamples
+            A new set.
+        """
         unknown = set(names) - set(CLASS_NAMES)
         if unknown:
             raise ParameterError(f"unknown surface class {', '.join(sorted(unknown))}; classes: {', '.join(CLASS_NAMES)}")
         return self.subset(np.isin(self.kind, [CLASS_NAMES.index(c) for c in names]))
 
     def class_areas(self) -> dict[str, float]:
+        """Square metres per surface class.
+
+        Returns
+        -------
+        dict of str to float
+            Every class, zero where it has no sample.
+        """
         return {name: float(self.area[self.kind == k].sum()) for k, name in enumerate(CLASS_NAMES)}
 
 
 def default_spacing(scene, d_opt: float, max_samples: int = 30_000) -> float:
-    """A sample spacing of d_opt / 8, coarsened so the target gives at most ``max_samples``."""
+    """A sample spacing of d_opt / 8, coarsened so the target gives at most ``max_samples``.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    d_opt : float
+        Metres.
+    max_samples : int
+        The most samples.
+
+    Returns
+    -------
+    float
+        Metres.
+    """
     area = sum(p.mesh.area for p in scene.targets)
     return float(max(d_opt / 8.0, np.sqrt(area / max_samples), 0.02))
 
@@ -70,7 +136,20 @@ MAX_CHECK_SAMPLES = 400_000
 
 
 def check_spacing(scene, spacing: float | None = None) -> float:
-    """``spacing`` (default 0.25 m), coarsened so the target gives at most 400,000 samples."""
+    """``spacing`` (default 0.25 m), coarsened so the target gives at most 400,000 samples.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    spacing : float, optional
+        Metres.
+
+    Returns
+    -------
+    float
+        Metres.
+    """
     area = sum(p.mesh.area for p in scene.targets)
     wanted = CHECK_SPACING_M if spacing is None else check_positive("spacing", spacing)
     return float(max(wanted, np.sqrt(area / MAX_CHECK_SAMPLES)))
@@ -81,6 +160,22 @@ def sample_surface(scene, spacing: float, seed: int = 0, oversample: float = 6.0
 
     Faces resting on the ground, surface below the ground and surface buried inside another
     mesh (or inside the target itself) are left out; their areas are in ``left_out``.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    spacing : float
+        Metres.
+    seed : int
+        The sampling's seed.
+    oversample : float
+        Points drawn per sample kept.
+
+    Returns
+    -------
+    SurfaceSamples
+        The samples.
     """
     spacing = check_positive("spacing", spacing)
     rng = np.random.default_rng(seed)
@@ -174,6 +269,18 @@ def classify(points, normals, scene) -> np.ndarray:
 
     Up-facing samples are terraces when, looking horizontally from just above them, some
     direction meets a wall of the target (the building goes on above them); else roof.
+
+    Parameters
+    ----------
+    points, normals : (n, 3) float
+        Samples.
+    scene : Scene
+        The scene.
+
+    Returns
+    -------
+    (n,) int
+        FACADE, ROOF, TERRACE or OPPOSED_TERRACE.
     """
     points = np.asarray(points, dtype=float)
     normals = np.asarray(normals, dtype=float)

@@ -36,6 +36,42 @@ def imaging_pairs(positions, headings, pitches, camera, points, normals, rays, *
     and incidence tests then run on the flat list of (camera, point) pairs, cameras taken in
     spatially compact chunks, before the surviving pairs are ray cast.
     Returns ``(camera_index, point_index, range)`` arrays.
+
+    Parameters
+    ----------
+    positions : (c, 3) float
+        Camera centres.
+    headings, pitches : (c,) float
+        Degrees.
+    camera : Camera
+        The camera.
+    points, normals : (n, 3) float
+        Samples.
+    rays : RayCaster
+        Occlusion tests.
+    max_range : float
+        Metres.
+    max_incidence_deg : float
+        Degrees.
+    shrink : float
+        The frame's share cut off on each side.
+    ball_m : float
+        Metres round each point the tests must hold.
+    offset : float
+        Metres the occlusion ray starts off the surface.
+    cameras_per_chunk : int
+        Cameras per batch.
+    progress : callable, optional
+        ``update(n)`` of a progress bar.
+    point_tree : scipy.spatial.cKDTree, optional
+        Over ``points``.
+
+    Returns
+    -------
+    cam, pt : (m,) int
+        Camera and point of each pair.
+    range : (m,) float
+        Metres.
     """
     chunks = [c[:3] for c in _imaged_chunks(positions, headings, pitches, camera, points, normals, rays,
                                             max_range=max_range, max_incidence_deg=max_incidence_deg, shrink=shrink,
@@ -51,7 +87,42 @@ def imaging_pairs_firm(positions, headings, pitches, camera, points, normals, ra
                        offset: float = 1e-3, point_tree=None):
     """``imaging_pairs`` (no shrink) plus, per pair, whether the view also holds with
     ``firm_shrink`` off the frustum, range and incidence for all points within ``firm_ball_m``:
-    ``(camera_index, point_index, range, firm)``."""
+    ``(camera_index, point_index, range, firm)``.
+
+    Parameters
+    ----------
+    positions : (c, 3) float
+        Camera centres.
+    headings, pitches : (c,) float
+        Degrees.
+    camera : Camera
+        The camera.
+    points, normals : (n, 3) float
+        Samples.
+    rays : RayCaster
+        Occlusion tests.
+    max_range : float
+        Metres.
+    max_incidence_deg : float
+        Degrees.
+    firm_shrink : float
+        The frame's share a firm view keeps spare.
+    firm_ball_m : float
+        Metres round the point a firm view holds.
+    offset : float
+        Metres the occlusion ray starts off the surface.
+    point_tree : scipy.spatial.cKDTree, optional
+        Over ``points``.
+
+    Returns
+    -------
+    cam, pt : (m,) int
+        Camera and point of each pair.
+    range : (m,) float
+        Metres.
+    firm : (m,) bool
+        Whether the view is firm.
+    """
     keep = 1.0 - firm_shrink
     tan_h, tan_v = camera.tan_half_hfov * keep, camera.tan_half_vfov * keep
     out = []
@@ -119,7 +190,26 @@ def clear_around(rays, points, normals, cameras, radius: float, skip: float) -> 
     """Per (point, camera): whether the camera also sees past whatever stands between from
     the four points ``radius`` off the point in its tangent plane. Their segments start
     ``skip`` out, so the surface beside the point (a concave corner) does not count: that
-    is the point's own ray's business."""
+    is the point's own ray's business.
+
+    Parameters
+    ----------
+    rays : RayCaster
+        Occlusion tests.
+    points, normals : (m, 3) float
+        The point of each pair.
+    cameras : (m, 3) float
+        The camera of each pair.
+    radius : float
+        Metres.
+    skip : float
+        The share of each segment skipped at its start.
+
+    Returns
+    -------
+    (m,) bool
+        Clear pairs.
+    """
     t1, t2 = tangent_frames(normals)
     out = np.ones(len(points), dtype=bool)
     for off in (t1, -t1, t2, -t2):
@@ -166,7 +256,30 @@ def in_view(x, y, z, dist, towards, tan_h: float, tan_v: float, reach: float, ma
             ball_m: float = 0.0) -> np.ndarray:
     """Frustum, range and incidence tests from a point's camera-frame coordinates ``x, y, z``,
     its range and ``towards`` = normal . (camera - point). With ``ball_m`` they must hold for
-    every point within ``ball_m`` (the incidence with the angle such a move can add)."""
+    every point within ``ball_m`` (the incidence with the angle such a move can add).
+
+    Parameters
+    ----------
+    x, y, z : (m,) float
+        Camera-frame coordinates, z forward.
+    dist : (m,) float
+        Ranges, metres.
+    towards : (m,) float
+        normal . (camera - point).
+    tan_h, tan_v : float
+        Tangents of the half fields of view.
+    reach : float
+        The largest range, metres.
+    max_incidence_deg : float
+        Degrees.
+    ball_m : float
+        Metres.
+
+    Returns
+    -------
+    (m,) bool
+        The tests' verdict.
+    """
     if ball_m <= 0:  # the ball's tests with e = 0, without an arcsin per pair (every visibility matrix)
         facing = towards >= np.cos(np.radians(max_incidence_deg)) * dist
         return ((z > 0) & (np.abs(x) <= tan_h * z) & (np.abs(y) <= tan_v * z) & (dist <= reach)
@@ -187,7 +300,22 @@ def _spatial_order(points, cell: float) -> np.ndarray:
 
 def visibility_matrix(n_cameras: int, n_points: int, pairs) -> tuple[sp.csr_matrix, np.ndarray]:
     """Boolean sparse matrix (cameras x points) from ``imaging_pairs`` output (no pair listed
-    twice), with sorted indices, and the order of the pairs that gives its entries."""
+    twice), with sorted indices, and the order of the pairs that gives its entries.
+
+    Parameters
+    ----------
+    n_cameras, n_points : int
+        The matrix's shape.
+    pairs : tuple of (m,) arrays
+        ``imaging_pairs``' camera and point indices (and ranges).
+
+    Returns
+    -------
+    vis : scipy.sparse.csr_matrix
+        Cameras by points.
+    order : (m,) int
+        The pairs in ``vis.data``'s order.
+    """
     i, j, _ = pairs
     # One key per pair sorts 4x faster than lexsort; sorted, the pairs are the CSR entries.
     order = np.argsort(np.asarray(i, dtype=np.int64) * n_points + j)
@@ -198,7 +326,22 @@ def visibility_matrix(n_cameras: int, n_points: int, pairs) -> tuple[sp.csr_matr
 
 
 def view_rays(cam_index, point_index, positions, points) -> np.ndarray:
-    """Unit vectors from each point to the camera imaging it."""
+    """Unit vectors from each point to the camera imaging it.
+
+    Parameters
+    ----------
+    cam_index, point_index : (m,) int
+        Camera and point of each pair.
+    positions : (c, 3) float
+        Camera centres.
+    points : (n, 3) float
+        Points.
+
+    Returns
+    -------
+    (m, 3) float
+        Unit vectors.
+    """
     v = np.asarray(positions)[cam_index] - np.asarray(points)[point_index]
     return v / np.linalg.norm(v, axis=1, keepdims=True)
 
@@ -231,7 +374,24 @@ def _pair_cosines(point_index, rays, n_points: int, max_block: int = 4_000_000):
 
 
 def widest_pair_angle(point_index, rays, n_points: int, max_block: int = 4_000_000) -> np.ndarray:
-    """Per point, the largest angle (deg) between two of its view rays; 0 with < 2 views."""
+    """Per point, the largest angle (deg) between two of its view rays; 0 with < 2 views.
+
+    Parameters
+    ----------
+    point_index : (m,) int
+        The point of each view.
+    rays : (m, 3) float
+        Unit rays.
+    n_points : int
+        Points.
+    max_block : int
+        Cosines per batch.
+
+    Returns
+    -------
+    (n_points,) float
+        Degrees.
+    """
     widest = np.zeros(n_points)
     for block, cos in _pair_cosines(point_index, rays, n_points, max_block):
         widest[block] = np.degrees(np.arccos(np.clip(cos.min(axis=(1, 2)), -1.0, 1.0)))
@@ -239,7 +399,28 @@ def widest_pair_angle(point_index, rays, n_points: int, max_block: int = 4_000_0
 
 
 def pair_stats(point_index, rays, n_points: int, lo_deg: float, hi_deg: float | None) -> tuple[np.ndarray, np.ndarray]:
-    """``widest_pair_angle`` and ``has_pair_between`` in one pass over the pair cosines."""
+    """``widest_pair_angle`` and ``has_pair_between`` in one pass over the pair cosines.
+
+    Parameters
+    ----------
+    point_index : (m,) int
+        The point of each view.
+    rays : (m, 3) float
+        Unit rays.
+    n_points : int
+        Points.
+    lo_deg : float
+        The least angle.
+    hi_deg : float or None
+        The largest angle.
+
+    Returns
+    -------
+    widest : (n_points,) float
+        Degrees.
+    ok : (n_points,) bool
+        Has a pair in the window.
+    """
     if hi_deg is None:
         widest = widest_pair_angle(point_index, rays, n_points)
         return widest, widest >= lo_deg
@@ -256,12 +437,31 @@ _FIRST_RAYS = 8  # has_pair_between's first look: 64 cosines a point instead of 
 
 
 def has_pair_between(point_index, rays, n_points: int, lo_deg: float, hi_deg: float | None) -> np.ndarray:
-    """Per point: do two of its view rays meet at an angle in [lo_deg, hi_deg]?
+    """Per point, whether two of its view rays meet at an angle in [lo_deg, hi_deg].
 
     ``hi_deg`` None means no upper bound (the thesis's rule: some pair at least lo_deg apart).
     A pair inside the window both triangulates (wide enough) and matches (narrow enough).
     Points are judged on their first few rays first: a pair found there is a pair of all, and
-    only the points without one pay for the k x k cosines of all their rays."""
+    only the points without one pay for the k x k cosines of all their rays.
+
+    Parameters
+    ----------
+    point_index : (m,) int
+        The point of each view.
+    rays : (m, 3) float
+        Unit rays.
+    n_points : int
+        Points.
+    lo_deg : float
+        The least angle.
+    hi_deg : float or None
+        The largest angle.
+
+    Returns
+    -------
+    (n_points,) bool
+        Points with a pair in the window.
+    """
     point_index = np.asarray(point_index, dtype=np.int64)
     rays = np.asarray(rays, dtype=float).reshape(-1, 3)
     counts = np.bincount(point_index, minlength=n_points)
