@@ -51,7 +51,23 @@ def check_lens_model(name: str) -> str:
 
 @dataclass
 class CameraGroup:
-    """Photos taken with one camera, and the camera as COLMAP is given it."""
+    """Photos taken with one camera, and the camera as COLMAP is given it.
+
+    Parameters
+    ----------
+    photo : PhotoCamera
+        Size and focal length (and, for rendered photos, the lens drawn through).
+    names : list of str
+        The photos, as COLMAP names them.
+    model : str
+        COLMAP's camera model.
+    params : tuple of float
+        Its parameters, in COLMAP's order.
+    refine : bool
+        Bundle adjustment refines focal length and distortion.
+    label : str
+        What the camera is, for the user.
+    """
 
     photo: PhotoCamera  # size and focal length (and, for rendered photos, the lens drawn through)
     names: list  # the photos, as COLMAP names them
@@ -83,6 +99,7 @@ class CameraGroup:
 
     @property
     def colmap_params(self) -> str:
+        """The parameters as COLMAP's comma-separated text."""
         return ",".join(f"{float(v):.12g}" for v in self.params)
 
 

@@ -45,7 +45,37 @@ JUDGING_RADIUS_M = 0.2  # a surface point counts as rebuilt with a 3D point this
 
 @dataclass
 class Check:
-    """What SfM made of a flight's real photos, and which photos it could not use."""
+    """What SfM made of a flight's real photos, and which photos it could not use.
+
+    Parameters
+    ----------
+    simulation : Simulation
+        The verdict, in simulate's terms.
+    route : Route
+        The photos as a route in the scene's frame (positions from their GNSS tags).
+    names : list of str
+        The photos used, in route order.
+    left_out : list of (str, str)
+        Name and why of the photos without a position.
+    icp_shift_m : float
+        How far the fit to the scene moves the model from its GNSS alignment.
+    fitted : bool
+        Whether the fit was applied.
+    missing : dict
+        Per surface class: square metres not rebuilt at 0.2 m.
+    gnss_residual_m : dict
+        Median and max distance of a camera centre from its GNSS tag, aligned.
+    unjudged : str
+        Why the surface could not be judged; empty when it was.
+    photo_cover : dict
+        Where the sparse model is too thin: what the photos see.
+    point_ceiling_pct : float
+        The most surface the sparse points could reach at 0.2 m.
+    cameras : list of dict
+        Each camera COLMAP was given: what it is, how many photos.
+    lost : list of (str, str)
+        Name and why of the photos outside the largest model.
+    """
 
     simulation: Simulation  # the verdict, in simulate's terms
     route: object  # the photos as a Route in the scene's frame (positions from their GNSS tags)
@@ -169,7 +199,22 @@ def _why_unjudged(best, apart: float | None, fitted: bool, fit: bool) -> str:
 
 def photos_as_mission(tags: list[PhotoTags], absolute_heights: bool, source: str) -> Mission:
     """The photos as a mission of one photo per waypoint, in name order; ``mission.heights``
-    says which height each photo gave and in which datum (``photo_heights``)."""
+    says which height each photo gave and in which datum (``photo_heights``).
+
+    Parameters
+    ----------
+    tags : list of PhotoTags
+        The photos' metadata.
+    absolute_heights : bool
+        The scene's heights have a datum.
+    source : str
+        What the photos are, for notes.
+
+    Returns
+    -------
+    Mission
+        One waypoint per photo.
+    """
     lat = np.array([t.lat for t in tags])
     lon = np.array([t.lon for t in tags])
     alt, ref, heights = photo_heights(tags, absolute_heights)
@@ -188,6 +233,22 @@ def photo_heights(tags: list[PhotoTags], absolute_heights: bool) -> tuple[np.nda
     the photo was taken with RTK fixed (``RtkFlag`` 50), the same tag as a WGS84 ellipsoidal
     height, brought to EGM96 with PROJ's geoid grid; else EXIF ``GPSAltitude`` (above sea level
     as the receiver writes it, its sign from ``GPSAltitudeRef``).
+
+    Parameters
+    ----------
+    tags : list of PhotoTags
+        The photos' metadata.
+    absolute_heights : bool
+        The scene's heights have a datum.
+
+    Returns
+    -------
+    alt : (n,) float
+        Metres.
+    ref : (n,) str
+        TAKEOFF or AMSL.
+    datum : str
+        The line naming it.
     """
     rel = np.array([t.relative_altitude_m for t in tags])
     xmp = np.array([t.absolute_altitude_m for t in tags])
@@ -228,7 +289,20 @@ def photo_heights(tags: list[PhotoTags], absolute_heights: bool) -> tuple[np.nda
 
 
 def route_camera(group: CameraGroup, tags: list[PhotoTags]) -> Camera:
-    """The camera of a group of photos as the route takes it (size and field of view)."""
+    """The camera of a group of photos as the route takes it (size and field of view).
+
+    Parameters
+    ----------
+    group : CameraGroup
+        The camera as SfM takes it.
+    tags : list of PhotoTags
+        Its photos' metadata.
+
+    Returns
+    -------
+    Camera
+        The camera.
+    """
     photo = group.photo
     mm = [t.focal_mm for t in tags if t.name in set(group.names) and np.isfinite(t.focal_mm)]
     mm = float(np.median(mm)) if mm else 10.0
@@ -240,6 +314,23 @@ def photos_route(folder, scene, gsd: float, security: float, progress: Progress 
                  lens_model: str = LENS_MODEL):
     """The photos of ``folder`` as a route of one photo per waypoint, in the scene's frame,
     from their metadata (positions through the scene's georeference).
+
+    Parameters
+    ----------
+    folder : str or Path
+        The photos.
+    scene : Scene
+        The scene, georeferenced.
+    gsd : float
+        Metres per pixel asked.
+    security : float
+        Metres.
+    progress : Progress, optional
+        Reports reading the tags.
+    least : int
+        Photos with a position needed.
+    lens_model : str
+        The COLMAP camera model for photos without a calibration.
 
     Returns
     -------
@@ -291,7 +382,28 @@ def fit_to_scene(points: np.ndarray, surfaces: trimesh.Trimesh, rounds: int = IC
                  sample: int = ICP_SAMPLE, seed: int = 0, reach: float = MAX_FIT_VERTICAL_M) -> np.ndarray:
     """A rigid transform (4, 4) moving ``points`` (n, 3) onto ``surfaces``: ICP on a sample,
     each round on the pairs within three times the median distance (at least 0.3 m, at most
-    ``reach``: farther points are clutter, not the same surface)."""
+    ``reach``: farther points are clutter, not the same surface).
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        The model's points.
+    surfaces : trimesh.Trimesh
+        The scene's surfaces.
+    rounds : int
+        ICP rounds.
+    sample : int
+        Points used.
+    seed : int
+        The sample's seed.
+    reach : float
+        Metres.
+
+    Returns
+    -------
+    (4, 4) float
+        The transform.
+    """
     rng = np.random.default_rng(seed)
     pts = points if len(points) <= sample else points[rng.choice(len(points), sample, replace=False)]
     total = np.eye(4)

@@ -28,7 +28,23 @@ INSTALL_HINT = "{command} needs pycolmap; install it with: pip install 'coverpla
 
 
 def require_pycolmap(command: str = "simulate"):
-    """The pycolmap module, or a one-line error saying how to get it for ``command``."""
+    """The pycolmap module, or a one-line error saying how to get it for ``command``.
+
+    Parameters
+    ----------
+    command : str
+        The subcommand that needs it.
+
+    Returns
+    -------
+    module
+        pycolmap.
+
+    Raises
+    ------
+    ParameterError
+        When pycolmap is not installed.
+    """
     try:
         import pycolmap
     except ImportError:
@@ -38,7 +54,27 @@ def require_pycolmap(command: str = "simulate"):
 
 @dataclass
 class SfmModel:
-    """One SfM model, aligned to the scene's local frame (when it could be)."""
+    """One SfM model, aligned to the scene's local frame (when it could be).
+
+    Parameters
+    ----------
+    image_names : list of str
+        Registered photos.
+    points : (n, 3) float
+        3D points in the local frame.
+    centres : (k, 3) float
+        Camera centres in the local frame.
+    reprojection_error_px : float
+        Mean reprojection error.
+    mean_track_length : float
+        Photos per 3D point.
+    aligned : bool
+        Whether the model is in the local frame.
+    rotations : (k, 3, 3) float, optional
+        Each photo's camera-from-local rotation.
+    intrinsics : (k, 6) float, optional
+        fx, fy, cx, cy, width and height, px.
+    """
 
     image_names: list[str]  # registered photos
     points: np.ndarray  # (n, 3) 3D points in the local frame
@@ -51,7 +87,20 @@ class SfmModel:
 
     def centre_error_m(self, names: list[str], true_centres: np.ndarray) -> dict:
         """Median and max distance (m) from each registered camera to where its photo was taken
-        (``true_centres``, in the order of ``names``); NaN when the model is not aligned."""
+        (``true_centres``, in the order of ``names``); NaN when the model is not aligned.
+
+        Parameters
+        ----------
+        names : list of str
+            Photo names.
+        true_centres : (n, 3) float
+            Where they were taken.
+
+        Returns
+        -------
+        dict
+            ``median`` and ``max``, metres.
+        """
         if not self.aligned or not self.image_names:
             return {"median": float("nan"), "max": float("nan")}
         index = {name: k for k, name in enumerate(names)}
@@ -61,6 +110,21 @@ class SfmModel:
 
 @dataclass
 class SfmResult:
+    """What COLMAP made of a set of photos: its models, largest first, and the work it took.
+
+    Parameters
+    ----------
+    models : list of SfmModel
+        Largest first.
+    verified_pairs : int
+        Pairs with a verified two-view geometry.
+    matched_pairs : int
+        Pairs matched.
+    seconds : dict
+        Seconds per stage.
+    mapper : str
+        The COLMAP mapper that made the models.
+    """
     models: list[SfmModel]  # largest first
     verified_pairs: int
     matched_pairs: int
@@ -69,6 +133,7 @@ class SfmResult:
 
     @property
     def largest(self) -> SfmModel | None:
+        """The largest model, or None."""
         return self.models[0] if self.models else None
 
 
@@ -78,7 +143,23 @@ MAX_FEATURES = 8192  # SIFT features per photo: COLMAP's own default
 
 
 def check_matching(kind: str) -> str:
-    """``kind`` if it names a way of pairing photos for large flights, else a one-line error."""
+    """``kind`` if it names a way of pairing photos for large flights, else a one-line error.
+
+    Parameters
+    ----------
+    kind : str
+        ``covisible`` or ``spatial``.
+
+    Returns
+    -------
+    str
+        ``kind``.
+
+    Raises
+    ------
+    ParameterError
+        For another name.
+    """
     if kind not in MATCHINGS:
         raise ParameterError(f"unknown matching {kind!r}; choose one of {', '.join(MATCHINGS)}")
     return kind
@@ -100,13 +181,42 @@ GLOBAL_MAPPING_S_PER_PHOTO = 1.3
 
 def global_mapping_seconds(photos: int, threads: int = -1) -> int:
     """Estimated seconds COLMAP's global mapper takes for ``photos`` photos on ``threads``
-    threads (-1: every core), from the rate measured on 2 cores."""
+    threads (-1: every core), from the rate measured on 2 cores.
+
+    Parameters
+    ----------
+    photos : int
+        Photos.
+    threads : int
+        Threads.
+
+    Returns
+    -------
+    int
+        Seconds.
+    """
     cores = (os.cpu_count() or 2) if threads is None or threads <= 0 else threads
     return max(1, int(round(GLOBAL_MAPPING_S_PER_PHOTO * photos * 2.0 / max(min(cores, 16), 1))))
 
 
 def check_mapper(kind: str) -> str:
-    """``kind`` if it names a COLMAP mapper (or "auto"), else a one-line error."""
+    """``kind`` if it names a COLMAP mapper (or "auto"), else a one-line error.
+
+    Parameters
+    ----------
+    kind : str
+        ``auto``, ``incremental`` or ``global``.
+
+    Returns
+    -------
+    str
+        ``kind``.
+
+    Raises
+    ------
+    ParameterError
+        For another name.
+    """
     if kind not in MAPPERS:
         raise ParameterError(f"unknown mapper {kind!r}; choose one of {', '.join(MAPPERS)}")
     return kind
@@ -114,7 +224,20 @@ def check_mapper(kind: str) -> str:
 
 def pick_mapper(kind: str, photos: int) -> str:
     """The mapper that ``kind`` names for a flight of ``photos`` photos: "auto" is COLMAP's
-    incremental mapper up to ``GLOBAL_MAPPING_ABOVE`` photos and its global one above."""
+    incremental mapper up to ``GLOBAL_MAPPING_ABOVE`` photos and its global one above.
+
+    Parameters
+    ----------
+    kind : str
+        ``auto``, ``incremental`` or ``global``.
+    photos : int
+        Photos.
+
+    Returns
+    -------
+    str
+        ``incremental`` or ``global``.
+    """
     check_mapper(kind)
     if kind != "auto":
         return kind
@@ -124,7 +247,20 @@ def pick_mapper(kind: str, photos: int) -> str:
 def set_options(options, overrides: dict | None) -> None:
     """Set ``overrides`` ({dotted attribute path: value}, such as
     ``{"mapper.ba_num_iterations": 1}``) on a pycolmap options object; a one-line error for a
-    path it does not have."""
+    path it does not have.
+
+    Parameters
+    ----------
+    options : object
+        A pycolmap options object.
+    overrides : dict, optional
+        Dotted attribute paths to values.
+
+    Raises
+    ------
+    ParameterError
+        For a path the options do not have.
+    """
     for path, value in (overrides or {}).items():
         *parents, name = path.split(".")
         obj = options
@@ -167,7 +303,36 @@ def map_models(pycolmap, mapper: str, database: Path, image_dir: Path, sparse: P
                photos: int, progress=None, refine: bool = False) -> dict:
     """``_map`` under a progress bar: one step per photo the incremental mapper registers; for
     the global mapper, which reports nothing while it runs, seconds against its estimated time
-    (``global_mapping_seconds``)."""
+    (``global_mapping_seconds``).
+
+    Parameters
+    ----------
+    pycolmap : module
+        pycolmap.
+    mapper : str
+        ``incremental`` or ``global``.
+    database : Path
+        COLMAP's database.
+    image_dir : Path
+        The photos.
+    sparse : Path
+        Where the models are written.
+    threads : int
+        Threads.
+    seed : int
+        COLMAP's seed.
+    photos : int
+        Photos, for the bar.
+    progress : Progress, optional
+        Draws the bar.
+    refine : bool
+        Refine the intrinsics.
+
+    Returns
+    -------
+    dict
+        COLMAP's reconstructions by index.
+    """
     if mapper == "incremental":
         with _stage(progress, "SfM mapping", total=photos) as tick:
             return _map(pycolmap, mapper, database, image_dir, sparse, threads, seed, tick, refine=refine)
@@ -183,6 +348,19 @@ def write_position_priors(pycolmap, database: Path, names: list[str], positions:
     COLMAP's feature extraction already stores a prior (in WGS84) for every photo whose EXIF
     carries GPS, and the database keeps one prior per image: that one is replaced, not joined
     by a second.
+
+    Parameters
+    ----------
+    pycolmap : module
+        pycolmap.
+    database : Path
+        COLMAP's database.
+    names : list of str
+        Photo names.
+    positions : (n, 3) float
+        Recorded positions, local metres.
+    sigma_m : float
+        Their standard deviation.
     """
     db = open_database(pycolmap, database)
     try:
@@ -236,7 +414,54 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     photos' CameraGroups (sfm/cameras.py; default: all taken with ``photo``, known exactly);
     intrinsics are refined when a group asks for it. ``resume``: keep the features and matches
     an earlier run left in ``work_dir`` for the same photos and options (sfm/resume.py);
-    otherwise the folder is emptied first."""
+    otherwise the folder is emptied first.
+
+    Parameters
+    ----------
+    image_dir : Path
+        The photos.
+    names : list of str
+        Photo names.
+    photo : PhotoCamera
+        The camera of every photo, unless ``cameras`` is given.
+    true_centres : (n, 3) float
+        Where the photos were taken, for alignment.
+    pairs : list of (int, int)
+        Pairs to match under ``covisible`` matching.
+    work_dir : Path
+        COLMAP's database and models.
+    exhaustive_limit : int
+        Photos up to which every pair is matched.
+    max_features : int
+        SIFT features per photo.
+    threads : int
+        Threads (-1: every core).
+    seed : int
+        COLMAP's seed.
+    progress : Progress, optional
+        Draws the bars.
+    matching : {"covisible", "spatial"}
+        How pairs are chosen above ``exhaustive_limit``.
+    recorded_positions : (n, 3) float, optional
+        GNSS tags, for spatial matching and position priors.
+    neighbour_distance : float
+        Metres.
+    neighbours : int
+        Spatial neighbours per photo.
+    mapper : {"auto", "incremental", "global"}
+        The COLMAP mapper.
+    working_px : int, optional
+        The photos' width as COLMAP reads them.
+    cameras : list of CameraGroup, optional
+        The photos' cameras.
+    resume : bool
+        Keep the stages a previous run finished with the same inputs.
+
+    Returns
+    -------
+    SfmResult
+        The models.
+    """
     import time
 
     pycolmap = require_pycolmap()
@@ -329,7 +554,24 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
 
 def aligned_models(pycolmap, recs: dict, names: list[str], true_centres: np.ndarray) -> list[SfmModel]:
     """COLMAP's models (``recs``, as its mappers return them), each aligned to the true camera
-    centres (``true_centres``, in the order of the photo ``names``), the largest first."""
+    centres (``true_centres``, in the order of the photo ``names``), the largest first.
+
+    Parameters
+    ----------
+    pycolmap : module
+        pycolmap.
+    recs : dict
+        COLMAP's reconstructions.
+    names : list of str
+        Photo names.
+    true_centres : (n, 3) float
+        Camera centres, local frame.
+
+    Returns
+    -------
+    list of SfmModel
+        Largest first.
+    """
     index = {name: i for i, name in enumerate(names)}
     models = [_aligned(pycolmap, rec, index, true_centres) for rec in recs.values()]
     models.sort(key=lambda m: -len(m.image_names))
@@ -365,7 +607,20 @@ POLL_S = 1.0  # seconds between reads of COLMAP's database for a bar's progress
 
 
 def open_database(pycolmap, database: Path):
-    """COLMAP's database at ``database``, opened as the installed pycolmap opens it."""
+    """COLMAP's database at ``database``, opened as the installed pycolmap opens it.
+
+    Parameters
+    ----------
+    pycolmap : module
+        pycolmap.
+    database : Path
+        The file.
+
+    Returns
+    -------
+    pycolmap.Database
+        The open database.
+    """
     return pycolmap.Database.open(database) if hasattr(pycolmap.Database, "open") else pycolmap.Database(database)
 
 
@@ -396,7 +651,25 @@ def polled(pycolmap, call, database: Path, table: str, total: int, tick, base: i
     One call, not many small ones: on 47 photos, 20 calls took 53 s to extract features and
     50 s to match that one call does in 37 s each (every call starts its threads and loads its
     photos' descriptors again). If the caller is interrupted (Ctrl-C) the token is cancelled
-    and the call waited for before the interruption goes on."""
+    and the call waited for before the interruption goes on.
+
+    Parameters
+    ----------
+    pycolmap : module
+        pycolmap.
+    call : callable
+        ``call(token)``.
+    database : Path
+        COLMAP's database.
+    table : str
+        The table counted.
+    total : int
+        Rows expected.
+    tick : callable
+        ``tick(n)``.
+    base : int
+        Rows already in it.
+    """
     import threading
 
     token = pycolmap.CancellationToken()
@@ -432,7 +705,27 @@ def polled(pycolmap, call, database: Path, table: str, total: int, tick, base: i
 def extract_features(pycolmap, database: Path, image_dir: Path, names: list[str], reader, extraction,
                      tick=lambda _n=1: None, base: int = 0) -> None:
     """SIFT features of the photos ``names`` into ``database``, on one camera (the photos share
-    the intrinsics ``reader`` gives), ``tick`` per photo done; ``base``: photos already in it."""
+    the intrinsics ``reader`` gives), ``tick`` per photo done; ``base``: photos already in it.
+
+    Parameters
+    ----------
+    pycolmap : module
+        pycolmap.
+    database : Path
+        COLMAP's database.
+    image_dir : Path
+        The photos.
+    names : list of str
+        Photo names.
+    reader : pycolmap.ImageReaderOptions
+        The camera.
+    extraction : pycolmap.FeatureExtractionOptions
+        SIFT options.
+    tick : callable
+        ``tick(n)``.
+    base : int
+        Photos already in the database.
+    """
     polled(pycolmap, lambda token: pycolmap.extract_features(
         database, image_dir, image_names=list(names), camera_mode=pycolmap.CameraMode.SINGLE,
         reader_options=reader, extraction_options=extraction, device=pycolmap.Device.cpu,

@@ -38,7 +38,21 @@ CLOUD_CORRELATION_S = 120.0  # passing clouds dim the direct sun over about 2 mi
 
 @dataclass(frozen=True)
 class Conditions:
-    """What the rendered photos suffer; ``ideal``, ``field`` and ``harsh`` are the presets."""
+    """What the rendered photos suffer; ``ideal``, ``field`` and ``harsh`` are the presets.
+
+    Parameters
+    ----------
+    name : str
+        The preset's name.
+    pose_error : bool
+        GNSS/RTK position, heading and gimbal error.
+    light : bool
+        Moving sun with cast shadows, clouds, auto exposure, sensor noise, motion blur.
+    facades : bool
+        Real façade materials: plaster, brick, window grids, glass, roof tiles.
+    metering : {"center", "average"}
+        The camera's auto exposure.
+    """
 
     name: str
     pose_error: bool  # GNSS/RTK position, heading and gimbal error
@@ -87,7 +101,33 @@ def get_conditions(name: str) -> Conditions:
 
 @dataclass
 class FlownPhotos:
-    """One draw of a flight: for every photo, the pose it was really taken from and its light."""
+    """One draw of a flight: for every photo, the pose it was really taken from and its light.
+
+    Parameters
+    ----------
+    positions : (n, 3) float
+        Where the camera really was.
+    heading_deg, pitch_deg : (n,) float
+        Its orientation.
+    time_s : (n,) float
+        Since the first take-off.
+    velocity : (n, 3) float
+        m/s during the exposure.
+    sun : (n, 3) float
+        Unit vectors towards the sun.
+    direct : (n,) float
+        Direct sunlight, 1 clear sky, 0 overcast.
+    exposure : (n,) float
+        The camera's gain relative to a metered exposure.
+    shutter_s : float
+        Exposure time.
+    seed : int
+        The draw's seed.
+    planned : (n, 3) float
+        The route's positions.
+    recorded : (n, 3) float
+        The photos' GNSS tags.
+    """
 
     positions: np.ndarray  # (n, 3) where the camera really was
     heading_deg: np.ndarray  # (n,)
@@ -167,6 +207,8 @@ def fly(route, conditions: Conditions, seed: int = 0, drone: DroneProfile | None
         ``ideal`` returns the planned poses in a fixed light.
     seed : int
         One seed, one draw.
+    drone : DroneProfile, optional
+        The drone flown; the route's profile when None.
     error : PoseError, optional
         Overrides the profile's position, heading and gimbal error.
 

@@ -60,6 +60,9 @@ def simulate_seconds(photos: int, *, draws: int, width: int, max_features: int, 
     neighbours : int
         Spatial matching's neighbours per photo, above ``exhaustive_limit`` photos.
     mapper : {"auto", "incremental", "global"}
+        The COLMAP mapper.
+    exhaustive_limit : int
+        Photos up to which every pair is matched.
     threads : int
         Threads for COLMAP (-1: every core); the rates are for 2.
 

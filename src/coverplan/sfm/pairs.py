@@ -61,6 +61,10 @@ def spatial_pairs(positions: np.ndarray, neighbours: int, max_distance: float) -
     ----------
     positions : (n, 3) float
         Recorded positions (GNSS tags in the local frame).
+    neighbours : int
+        Nearest photos per photo.
+    max_distance : float
+        Metres.
 
     Returns
     -------

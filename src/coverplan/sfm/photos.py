@@ -41,7 +41,43 @@ _MM_PER_UNIT = {2: 25.4, 3: 10.0, 4: 1.0, 5: 1e-3}  # EXIF focal-plane resolutio
 
 @dataclass
 class PhotoTags:
-    """One photo's metadata. NaN where the photo does not say."""
+    """One photo's metadata. NaN where the photo does not say.
+
+    Parameters
+    ----------
+    name : str
+        The file's name.
+    width, height : int
+        Pixels.
+    lat, lon : float
+        WGS 84 degrees.
+    gps_altitude_m : float
+        Above sea level (EXIF).
+    absolute_altitude_m : float
+        Above sea level (DJI XMP).
+    relative_altitude_m : float
+        Above the take-off point (DJI XMP).
+    heading_deg : float
+        Gimbal yaw, degrees clockwise from true north.
+    pitch_deg : float
+        Gimbal pitch: 0 level, -90 down.
+    focal_mm : float
+        Focal length.
+    focal_35mm : float
+        35 mm equivalent focal length.
+    pixels_per_mm : float
+        On the sensor (EXIF focal-plane resolution).
+    rtk_flag : int
+        DJI RtkFlag: 0 no RTK, 16 single point, 34 float, 50 fixed; -1 not given.
+    rtk_std_m : (float, float, float)
+        DJI RtkStdLon, RtkStdLat, RtkStdHgt.
+    camera_model : str
+        EXIF Model.
+    dewarp_data : str
+        DJI DewarpData.
+    optical_centre_x : float
+        DJI CalibratedOpticalCenterX, px.
+    """
 
     name: str
     width: int

@@ -36,7 +36,17 @@ _OCTAVES = 5
 @dataclass(frozen=True)
 class PhotoCamera:
     """The route camera's field of view at a reduced resolution: a pinhole, or through ``lens``
-    (photos as a real lens draws them)."""
+    (photos as a real lens draws them).
+
+    Parameters
+    ----------
+    width, height : int
+        Pixels.
+    fx, fy : float
+        Focal lengths, px.
+    lens : Lens
+        The distortion drawn through.
+    """
 
     width: int
     height: int
@@ -46,20 +56,49 @@ class PhotoCamera:
 
     @property
     def cx(self) -> float:
+        """The principal point's x, px: the photo's centre."""
         return self.width / 2.0
 
     @property
     def cy(self) -> float:
+        """The principal point's y, px: the photo's centre."""
         return self.height / 2.0
 
     @classmethod
     def of(cls, camera, width: int, lens: Lens = PINHOLE) -> "PhotoCamera":
+        """The route camera's field of view at ``width`` pixels across.
+
+        Parameters
+        ----------
+        camera : Camera
+            The route's camera.
+        width : int
+            Pixels.
+        lens : Lens
+            The distortion drawn through.
+
+        Returns
+        -------
+        PhotoCamera
+            The photo camera.
+        """
         width = int(width)
         height = max(8, int(round(width * camera.image_height_px / camera.image_width_px)))
         return cls(width, height, width / (2.0 * camera.tan_half_hfov), height / (2.0 * camera.tan_half_vfov), lens)
 
     def rays(self, heading_deg: float, pitch_deg: float) -> np.ndarray:
-        """World directions (h*w, 3) through every pixel centre, row-major from the top left."""
+        """World directions (h*w, 3) through every pixel centre, row-major from the top left.
+
+        Parameters
+        ----------
+        heading_deg, pitch_deg : float
+            The camera's orientation.
+
+        Returns
+        -------
+        (h*w, 3) float
+            Unit vectors.
+        """
         right, up, forward = (np.asarray(a, dtype=float) for a in camera_axes(heading_deg, pitch_deg))
         u = (np.arange(self.width) + 0.5 - self.cx) / self.fx
         v = (np.arange(self.height) + 0.5 - self.cy) / self.fy
@@ -70,12 +109,30 @@ class PhotoCamera:
         return d / np.linalg.norm(d, axis=1, keepdims=True)
 
     def gsd_at(self, distance: float) -> float:
+        """Metres per pixel at the photo's centre at ``distance`` metres.
+
+        Parameters
+        ----------
+        distance : float
+            Metres.
+
+        Returns
+        -------
+        float
+            Metres per pixel.
+        """
         return float(distance) / self.fx
 
     def pixel_scale(self) -> np.ndarray:
         """(h*w,) how much each pixel is magnified against the pinhole at the photo's centre,
         the smaller of the lens's radial and tangential scale there (1 for a pinhole; a barrel
-        lens squeezes more of the scene into each pixel towards the corners)."""
+        lens squeezes more of the scene into each pixel towards the corners).
+
+        Returns
+        -------
+        (h*w,) float
+            Magnification per pixel.
+        """
         if self.lens.is_pinhole:
             return np.ones(self.width * self.height)
         u = (np.arange(self.width) + 0.5 - self.cx) / self.fx
@@ -90,7 +147,20 @@ class PhotoCamera:
 
 def ground_plane(scene, reach: float) -> trimesh.Trimesh:
     """A square at the scene's ground height reaching ``reach`` beyond every mesh; over
-    terrain, the terrain's own surface."""
+    terrain, the terrain's own surface.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    reach : float
+        Metres.
+
+    Returns
+    -------
+    trimesh.Trimesh
+        The ground.
+    """
     if scene.terrain is not None:
         return scene.terrain.mesh
     lo, hi = scene.bounds()
@@ -106,7 +176,18 @@ _PRIMES = (np.uint32(73856093), np.uint32(19349663), np.uint32(83492791))
 
 
 def noise_lattice(seed: int) -> np.ndarray:
-    """The random values the corner hash indexes (4 MB)."""
+    """The random values the corner hash indexes (4 MB).
+
+    Parameters
+    ----------
+    seed : int
+        The values' seed.
+
+    Returns
+    -------
+    (2**20,) float32
+        Values in [0, 1).
+    """
     return np.random.default_rng(seed).random(1 << _TABLE_BITS, dtype=np.float32)
 
 
@@ -114,7 +195,24 @@ def value_noise(points: np.ndarray, cell: float, lattice: np.ndarray, shift: int
     """Smooth 3D value noise in [0, 1] with lattice cells of ``cell`` metres.
 
     Corner values come from a spatial hash of the integer corner, not from a wrapped lattice:
-    a repeating texture lets SfM match one wall to another (seen: whole storeys misplaced)."""
+    a repeating texture lets SfM match one wall to another (seen: whole storeys misplaced).
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Surface points.
+    cell : float
+        Metres.
+    lattice : (m,) float32
+        ``noise_lattice``'s values.
+    shift : int
+        Salt of the hash, one per octave.
+
+    Returns
+    -------
+    (n,) float
+        Noise.
+    """
     p = (points / cell).astype(np.float64)
     base = np.floor(p)
     f = (p - base).astype(np.float32)
@@ -136,7 +234,22 @@ def value_noise(points: np.ndarray, cell: float, lattice: np.ndarray, shift: int
 
 
 def texture(points: np.ndarray, finest: float, lattice: np.ndarray) -> np.ndarray:
-    """Multi-scale solid texture in [0, 1]: octaves from ``finest`` metres up, doubling."""
+    """Multi-scale solid texture in [0, 1]: octaves from ``finest`` metres up, doubling.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Surface points.
+    finest : float
+        Metres.
+    lattice : (m,) float32
+        ``noise_lattice``'s values.
+
+    Returns
+    -------
+    (n,) float
+        Albedo factor.
+    """
     total = np.zeros(len(points), dtype=np.float32)
     weight = 0.0
     for k in range(_OCTAVES):
@@ -150,7 +263,21 @@ def texture(points: np.ndarray, finest: float, lattice: np.ndarray) -> np.ndarra
 
 
 class PhotoRenderer:
-    """Renders grey photos of a scene (its meshes plus a ground plane) from route poses."""
+    """Renders grey photos of a scene (its meshes plus a ground plane) from route poses.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    photo : PhotoCamera
+        The photo camera.
+    finest_texture_m : float
+        The finest texture octave, metres.
+    ground_reach : float
+        How far the ground plane reaches beyond the meshes, metres.
+    seed : int
+        The textures' and tones' seed.
+    """
 
     def __init__(self, scene, photo: PhotoCamera, finest_texture_m: float, ground_reach: float, seed: int = 0):
         self.photo = photo
@@ -182,11 +309,41 @@ class PhotoRenderer:
         return dirs, hit, dist[hit], mesh[hit], pts, albedo, normal
 
     def render(self, position, heading_deg: float, pitch_deg: float) -> np.ndarray:
-        """One photo as a (height, width) uint8 array."""
+        """One photo as a (height, width) uint8 array.
+
+        Parameters
+        ----------
+        position : (3,) float
+            Camera centre.
+        heading_deg, pitch_deg : float
+            Orientation.
+
+        Returns
+        -------
+        (h, w) uint8
+            The photo.
+        """
         return self.render_with_points(position, heading_deg, pitch_deg)[0]
 
     def render_with_points(self, position, heading_deg: float, pitch_deg: float, every: int = 7):
-        """One photo and the scene points seen by every ``every``-th pixel (for pairing)."""
+        """One photo and the scene points seen by every ``every``-th pixel (for pairing).
+
+        Parameters
+        ----------
+        position : (3,) float
+            Camera centre.
+        heading_deg, pitch_deg : float
+            Orientation.
+        every : int
+            Pixel stride of the points returned.
+
+        Returns
+        -------
+        image : (h, w) uint8
+            The photo.
+        seen : (k, 3) float
+            Scene points.
+        """
         dirs, hit, dist, mesh, pts, albedo, normal = self._cast(position, heading_deg, pitch_deg)
         img = np.full(len(dirs), _SKY)
         seen = np.zeros((0, 3))
@@ -203,19 +360,65 @@ TEXTURE_FAMILIES = ("noise", "cells")
 
 
 def ground_reach(d_opt: float, security: float) -> float:
-    """How far the rendered ground reaches beyond the meshes: farther than any photo looks."""
+    """How far the rendered ground reaches beyond the meshes: farther than any photo looks.
+
+    Parameters
+    ----------
+    d_opt : float
+        Metres.
+    security : float
+        Metres.
+
+    Returns
+    -------
+    float
+        Metres.
+    """
     return 4.0 * float(d_opt) + float(security)
 
 
 def ideal_renderer(scene, photo: PhotoCamera, d_opt: float, security: float, seed: int = 0) -> PhotoRenderer:
     """The renderer of ``--conditions ideal``: value noise whose finest octave is about 2.5 px
-    wide at 80 % of d_opt (the usual standoff), visible and not aliased."""
+    wide at 80 % of d_opt (the usual standoff), visible and not aliased.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    photo : PhotoCamera
+        The photo camera.
+    d_opt, security : float
+        Metres.
+    seed : int
+        The textures' seed.
+
+    Returns
+    -------
+    PhotoRenderer
+        The renderer.
+    """
     return PhotoRenderer(scene, photo, finest_texture_m=2.5 * photo.gsd_at(0.8 * d_opt),
                          ground_reach=ground_reach(d_opt, security), seed=seed)
 
 
 def check_texture(family: str) -> str:
-    """``family`` if it names a texture family, else a one-line ParameterError."""
+    """``family`` if it names a texture family, else a one-line ParameterError.
+
+    Parameters
+    ----------
+    family : str
+        A texture family's name.
+
+    Returns
+    -------
+    str
+        ``family``.
+
+    Raises
+    ------
+    ParameterError
+        For another name.
+    """
     if family not in TEXTURE_FAMILIES:
         raise ParameterError(f"unknown texture family {family!r}; choose one of {', '.join(TEXTURE_FAMILIES)}")
     return family
@@ -242,14 +445,43 @@ _CENTRE_SHARE = 0.75
 
 
 def check_metering(metering: str) -> str:
-    """``metering`` if it names a metering mode, else a one-line ParameterError."""
+    """``metering`` if it names a metering mode, else a one-line ParameterError.
+
+    Parameters
+    ----------
+    metering : str
+        ``center`` or ``average``.
+
+    Returns
+    -------
+    str
+        ``metering``.
+
+    Raises
+    ------
+    ParameterError
+        For another name.
+    """
     if metering not in METERING:
         raise ParameterError(f"unknown metering {metering!r}; choose one of {', '.join(METERING)}")
     return metering
 
 
 def metering_weights(height: int, width: int, metering: str = "center") -> np.ndarray:
-    """(height * width,) float weights, summing to 1, with which auto exposure averages a frame."""
+    """(height * width,) float weights, summing to 1, with which auto exposure averages a frame.
+
+    Parameters
+    ----------
+    height, width : int
+        Pixels.
+    metering : {"center", "average"}
+        The mode.
+
+    Returns
+    -------
+    (height * width,) float
+        Weights.
+    """
     if check_metering(metering) == "average":
         return np.full(height * width, 1.0 / (height * width))
     y, x = np.mgrid[0:height, 0:width]
@@ -261,7 +493,22 @@ def metering_weights(height: int, width: int, metering: str = "center") -> np.nd
 
 
 def pixel_footprint(distance: np.ndarray, cos_incidence: np.ndarray, fx: float) -> np.ndarray:
-    """(n,) metres of surface one pixel spans along its longer side."""
+    """(n,) metres of surface one pixel spans along its longer side.
+
+    Parameters
+    ----------
+    distance : (n,) float
+        Metres.
+    cos_incidence : (n,) float
+        Cosine of the incidence.
+    fx : float
+        Focal length, px.
+
+    Returns
+    -------
+    (n,) float
+        Metres.
+    """
     return distance / fx / np.maximum(np.abs(cos_incidence), 0.2)
 
 
@@ -272,7 +519,22 @@ def _fade(scale_m, footprint) -> np.ndarray:
 
 
 def physical_noise(points: np.ndarray, footprint: np.ndarray, lattice: np.ndarray) -> np.ndarray:
-    """Value noise with equal energy per octave from FINEST_M to COARSEST_M, filtered by footprint."""
+    """Value noise with equal energy per octave from FINEST_M to COARSEST_M, filtered by footprint.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Surface points.
+    footprint : (n,) float
+        Metres per pixel there.
+    lattice : (m,) float32
+        ``noise_lattice``'s values.
+
+    Returns
+    -------
+    (n,) float
+        Albedo.
+    """
     n_oct = int(round(np.log2(COARSEST_M / FINEST_M))) + 1
     total = np.zeros(len(points), dtype=np.float32)
     for k in range(n_oct):
@@ -296,7 +558,24 @@ def _cell_hash(i: np.ndarray, salt: int) -> np.ndarray:
 def cellular(points: np.ndarray, size: float, salt: int):
     """Worley cells of about ``size`` metres: (tone in [0, 1] of the nearest cell, metres to the
     joint with the next cell, doubled). Feature points are searched in the 2 x 2 x 2 cells
-    nearest the point, which finds the nearest one nearly always at an eighth of the work."""
+    nearest the point, which finds the nearest one nearly always at an eighth of the work.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Surface points.
+    size : float
+        Metres.
+    salt : int
+        The hash's salt.
+
+    Returns
+    -------
+    tone : (n,) float
+        The nearest cell's tone.
+    gap : (n,) float
+        Metres to the joint, doubled.
+    """
     p = (points / size).astype(np.float32)
     base = np.floor(p)
     near = np.where(p - base < 0.5, -1, 0).astype(np.int64) + base.astype(np.int64)
@@ -321,7 +600,20 @@ def cellular(points: np.ndarray, size: float, salt: int):
 
 
 def physical_cells(points: np.ndarray, footprint: np.ndarray) -> np.ndarray:
-    """Cellular stone: blocks of two sizes with their own tones and dark joints, filtered."""
+    """Cellular stone: blocks of two sizes with their own tones and dark joints, filtered.
+
+    Parameters
+    ----------
+    points : (n, 3) float
+        Surface points.
+    footprint : (n,) float
+        Metres per pixel there.
+
+    Returns
+    -------
+    (n,) float
+        Albedo.
+    """
     out = np.full(len(points), 0.5, dtype=np.float32)
     for size, amp, salt in ((0.45, 0.5, 3), (0.09, 0.35, 5), (0.02, 0.25, 7)):
         w = _fade(size, footprint)
@@ -344,7 +636,20 @@ def _filtered_pulse(x: np.ndarray, period: float, width: float, footprint: np.nd
 
 
 def facade_coordinates(points: np.ndarray, normals: np.ndarray, ground_z: float):
-    """(along, up): metres along a wall (horizontal, perpendicular to its normal) and above ground."""
+    """(along, up): metres along a wall (horizontal, perpendicular to its normal) and above ground.
+
+    Parameters
+    ----------
+    points, normals : (n, 3) float
+        Wall points.
+    ground_z : float
+        Metres.
+
+    Returns
+    -------
+    along, up : (n,) float
+        Metres.
+    """
     t = np.column_stack([-normals[:, 1], normals[:, 0]])
     t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-9)
     return np.einsum("ij,ij->i", points[:, :2], t), points[:, 2] - ground_z
@@ -352,7 +657,22 @@ def facade_coordinates(points: np.ndarray, normals: np.ndarray, ground_z: float)
 
 def brick(along, up, footprint, salt: int) -> np.ndarray:
     """Courses of 7.1 cm (6.1 cm bricks, 1 cm joints), bricks 24 cm long in stretcher bond,
-    one tone per brick."""
+    one tone per brick.
+
+    Parameters
+    ----------
+    along, up : (n,) float
+        ``facade_coordinates``.
+    footprint : (n,) float
+        Metres per pixel there.
+    salt : int
+        The tones' salt.
+
+    Returns
+    -------
+    (n,) float
+        Albedo.
+    """
     course, length, joint = 0.071, 0.24, 0.01
     row = np.floor(up / course)
     shifted = along + 0.5 * length * (row % 2)
@@ -369,7 +689,18 @@ WINDOW_W, WINDOW_H, SILL_M, FRAME_M = 1.2, 1.4, 0.9, 0.07
 
 
 def windows(along, up):
-    """(glass, frame) masks of a regular grid of identical windows, storey by storey."""
+    """(glass, frame) masks of a regular grid of identical windows, storey by storey.
+
+    Parameters
+    ----------
+    along, up : (n,) float
+        ``facade_coordinates``.
+
+    Returns
+    -------
+    glass, frame : (n,) bool
+        Masks.
+    """
     a = np.mod(along, WINDOW_BAY_M) - 0.5 * (WINDOW_BAY_M - WINDOW_W)
     b = np.mod(up, STOREY_M) - SILL_M
     inside = (a >= 0) & (a <= WINDOW_W) & (b >= 0) & (b <= WINDOW_H) & (up > SILL_M)
@@ -379,7 +710,20 @@ def windows(along, up):
 
 
 def tiles(points, normals, footprint) -> np.ndarray:
-    """Roof tiles in rows 33 cm apart down the slope, 22 cm wide, each shaded alike."""
+    """Roof tiles in rows 33 cm apart down the slope, 22 cm wide, each shaded alike.
+
+    Parameters
+    ----------
+    points, normals : (n, 3) float
+        Roof points.
+    footprint : (n,) float
+        Metres per pixel there.
+
+    Returns
+    -------
+    (n,) float
+        Albedo.
+    """
     h = normals[:, :2]
     hn = np.linalg.norm(h, axis=1, keepdims=True)
     down = np.where(hn > 0.05, h / np.maximum(hn, 1e-9), [[0.0, 1.0]])
@@ -396,7 +740,25 @@ def tiles(points, normals, footprint) -> np.ndarray:
 
 
 class FieldRenderer(PhotoRenderer):
-    """Photos under field conditions: physical textures, the drawn light, camera effects."""
+    """Photos under field conditions: physical textures, the drawn light, camera effects.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene.
+    photo : PhotoCamera
+        The photo camera.
+    ground_reach : float
+        Metres.
+    family : str
+        The texture family.
+    facades : bool
+        Real façade materials.
+    seed : int
+        The textures' seed.
+    metering : {"center", "average"}
+        The auto exposure.
+    """
 
     def __init__(self, scene, photo: PhotoCamera, ground_reach: float, family: str = "noise",
                  facades: bool = False, seed: int = 0, metering: str = "center"):
@@ -437,14 +799,60 @@ class FieldRenderer(PhotoRenderer):
         return value, glass
 
     def render_with_points(self, position, heading_deg: float, pitch_deg: float, every: int = 7):
-        """The materials in the ideal renderer's fixed light: no shadows, noise or blur."""
+        """The materials in the ideal renderer's fixed light: no shadows, noise or blur.
+
+        Parameters
+        ----------
+        position : (3,) float
+            Camera centre.
+        heading_deg, pitch_deg : float
+            Orientation.
+        every : int
+            Pixel stride of the points returned.
+
+        Returns
+        -------
+        image : (h, w) uint8
+            The photo.
+        seen : (k, 3) float
+            Scene points.
+        """
         return self.render_flown(position, heading_deg, pitch_deg, _SUN, 1.0, 1.0, np.zeros(3), 0.0, None,
                                  every=every)
 
     def render_flown(self, position, heading_deg, pitch_deg, sun, direct, exposure, velocity, shutter_s,
                      rng, every: int = 7):
         """One photo (h, w) uint8 from a drawn pose, in the drawn light, and the points seen.
-        Without ``rng`` the light is plain: no cast shadows and no sensor noise."""
+        Without ``rng`` the light is plain: no cast shadows and no sensor noise.
+
+        Parameters
+        ----------
+        position : (3,) float
+            Camera centre.
+        heading_deg, pitch_deg : float
+            Orientation.
+        sun : (3,) float
+            Unit vector towards the sun.
+        direct : float
+            Direct sunlight.
+        exposure : float
+            Gain.
+        velocity : (3,) float
+            m/s during the exposure.
+        shutter_s : float
+            Exposure time.
+        rng : numpy.random.Generator or None
+            Shadows' and noise's draw; None renders plain light.
+        every : int
+            Pixel stride of the points returned.
+
+        Returns
+        -------
+        image : (h, w) uint8
+            The photo.
+        seen : (k, 3) float
+            Scene points.
+        """
         dirs, hit, dist, mesh, pts, albedo, normal = self._cast(position, heading_deg, pitch_deg)
         img = np.full(len(dirs), _SKY_FIELD * (0.55 + 0.45 * direct), dtype=np.float64)
         seen = np.zeros((0, 3))

@@ -50,7 +50,18 @@ CLASS_MIN = 90.0
 
 
 def photo_names(n: int) -> list[str]:
-    """The file names of a simulated flight's ``n`` photos, in route order (COLMAP's image names)."""
+    """The file names of a simulated flight's ``n`` photos, in route order (COLMAP's image names).
+
+    Parameters
+    ----------
+    n : int
+        Photos.
+
+    Returns
+    -------
+    list of str
+        Names.
+    """
     return [f"shot_{k:04d}.png" for k in range(n)]
 
 
@@ -137,7 +148,13 @@ class Simulation:
                 self.least_class[1])
 
     def summary(self) -> dict:
-        """One draw in a few numbers (for the draws table and reports)."""
+        """One draw in a few numbers (for the draws table and reports).
+
+        Returns
+        -------
+        dict
+            Photos, registered, models, surface at 0.2 m.
+        """
         by = self.surface["by_radius"]["0.2"]
         c, v = self.least_class
         return {"photos": self.photos, "registered": self.registered, "models": self.models,
@@ -147,10 +164,12 @@ class Simulation:
 
     @property
     def reconstructed_pct(self) -> float:
+        """The target surface with a 3D point within 0.2 m, percent."""
         return self.surface["by_radius"]["0.2"]["pct"]
 
     @property
     def reconstructable(self) -> bool:
+        """Whether the photo set passes: enough photos in one model and enough surface rebuilt."""
         by = self.surface["by_radius"]["0.2"]
         return (self.registered >= REGISTERED_MIN * self.photos and by["pct"] >= SURFACE_MIN
                 and all(v >= CLASS_MIN for c, v in by["by_class_pct"].items()
@@ -199,7 +218,13 @@ class Simulation:
         return head + rows
 
     def draws_table(self) -> str:
-        """Worst and median of the draws, then each draw."""
+        """Worst and median of the draws, then each draw.
+
+        Returns
+        -------
+        str
+            A terminal table.
+        """
         def row(label, d):
             return (label, f"{d['registered']}/{d['photos']}", f"{d['models']}", f"{d['surface_0.2_pct']:.1f} %",
                     f"{d['least_class']} {d['least_class_pct']:.1f} %".strip(), "yes" if d["reconstructable"] else "no")
@@ -216,7 +241,20 @@ class Simulation:
         return "\n".join("  ".join(c.ljust(wd) for c, wd in zip(r, widths)).rstrip() for r in rows)
 
     def reconstructed_at(self, points, radius: float = 0.2) -> np.ndarray:
-        """Per point: is a 3D point of the largest model within ``radius``?"""
+        """Per point, whether a 3D point of the largest model lies within ``radius``.
+
+        Parameters
+        ----------
+        points : (n, 3) float
+            Local coordinates.
+        radius : float
+            Metres.
+
+        Returns
+        -------
+        (n,) bool
+            Points near the model.
+        """
         if len(self.model_points) == 0:
             return np.zeros(len(points), dtype=bool)
         from scipy.spatial import cKDTree
@@ -224,7 +262,18 @@ class Simulation:
         return dist <= radius
 
     def save(self, path) -> Path:
-        """Write the summary as JSON and the aligned 3D points beside it (``*.points.ply``)."""
+        """Write the summary as JSON and the aligned 3D points beside it (``*.points.ply``).
+
+        Parameters
+        ----------
+        path : str or Path
+            The JSON file.
+
+        Returns
+        -------
+        Path
+            ``path``.
+        """
         import trimesh
 
         path = Path(path)
@@ -235,7 +284,18 @@ class Simulation:
 
     @classmethod
     def load(cls, path) -> "Simulation":
-        """A saved simulation (for reports): the summary and the aligned 3D points."""
+        """A saved simulation (for reports): the summary and the aligned 3D points.
+
+        Parameters
+        ----------
+        path : str or Path
+            The JSON file.
+
+        Returns
+        -------
+        Simulation
+            The simulation.
+        """
         import trimesh
 
         path = Path(path)
@@ -268,7 +328,25 @@ LENSES = ("pinhole", "drone")
 
 def photo_lens(kind: str, route) -> Lens:
     """The lens ``simulate`` draws the route's photos through: a pinhole, or ("drone") the
-    distortion of the route's drone profile; a one-line error when the route has none."""
+    distortion of the route's drone profile; a one-line error when the route has none.
+
+    Parameters
+    ----------
+    kind : {"pinhole", "drone"}
+        The lens asked.
+    route : Route
+        Its drone profile gives the lens.
+
+    Returns
+    -------
+    Lens
+        The lens.
+
+    Raises
+    ------
+    ParameterError
+        ``drone`` for a route without a profile.
+    """
     if kind not in LENSES:
         raise ParameterError(f"unknown lens {kind!r}; choose one of {', '.join(LENSES)}")
     if kind == "pinhole":
