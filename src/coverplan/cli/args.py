@@ -23,14 +23,38 @@ from coverplan.world.pointcloud import parse_classes
 
 class Formatter(argparse.HelpFormatter):
     """argparse's help, where an option may show its values as it takes them (``shown_as``:
-    "LAT LON [H]" for two or three numbers, which ``nargs`` cannot say)."""
+    "LAT LON [H]" for two or three numbers, which ``nargs`` cannot say).
+
+    Parameters
+    ----------
+    prog : str
+        The program's name.
+    indent_increment : int
+        Spaces per nesting level.
+    max_help_position : int
+        The column help text starts at.
+    width : int, optional
+        The help's width; the terminal's when None.
+    """
 
     def _format_args(self, action, default_metavar):
         return getattr(action, "shown_as", None) or super()._format_args(action, default_metavar)
 
 
 class DeprecatedAlias(argparse.Action):
-    """An option that still answers to its old name (``old``), with a warning that says the new one."""
+    """An option that still answers to its old name (``old``), with a warning that says the new one.
+
+    Parameters
+    ----------
+    option_strings : list of str
+        The option's names, the new one first.
+    dest : str
+        The attribute set.
+    old : str
+        The old name.
+    **kwargs
+        ``argparse.Action``'s other arguments.
+    """
 
     def __init__(self, option_strings, dest, old: str, **kwargs):
         self.old, self.warned = old, False
@@ -45,19 +69,42 @@ class DeprecatedAlias(argparse.Action):
 
 
 class Parser(argparse.ArgumentParser):
-    """argparse with one-line errors and exit status 2."""
+    """argparse with one-line errors and exit status 2.
+
+    Parameters
+    ----------
+    *args, **kwargs
+        ``argparse.ArgumentParser``'s arguments.
+    """
 
     def __init__(self, *args, **kwargs):
         kwargs.setdefault("formatter_class", Formatter)
         super().__init__(*args, **kwargs)
 
     def error(self, message):
+        """Print the usage's first line and ``message`` as one line, and exit with status 2.
+
+        Parameters
+        ----------
+        message : str
+            What is wrong.
+        """
         sys.stderr.write(f"{self.prog}: error: {message} (see {self.prog} --help)\n")
         sys.exit(2)
 
 
 def add_scene_args(p, targets_positional: bool, recorded: bool = False):
-    """The scene's files and options; ``recorded``: a route's own record of its scene is the default."""
+    """The scene's files and options; ``recorded``: a route's own record of its scene is the default.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The subcommand's parser.
+    targets_positional : bool
+        The targets are positional arguments, not ``--target``.
+    recorded : bool
+        The route's record of its scene is the default.
+    """
     if targets_positional:
         p.add_argument("targets", nargs="+", metavar="TARGET", help="target mesh file(s)")
     else:
@@ -102,6 +149,18 @@ def add_scene_args(p, targets_positional: bool, recorded: bool = False):
 
 
 def scene_from_args(args):
+    """The scene the command line's scene options name (``load_scene``).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    Scene
+        The scene.
+    """
     return load_scene(args.targets, args.obstacles, units=args.units, ground=args.ground,
                       target_names=args.target_names, up_axis=args.up_axis, building=args.building,
                       lod=args.lod, context_radius=args.context_radius, crs=args.crs,
@@ -119,7 +178,27 @@ SCENE_OPTIONS = ("obstacles", "units", "ground", "terrain", "target_names", "up_
 def scene_for_route(args, route=None, path=None):
     """The scene given with --target, else the one the route file ``path`` (default
     ``args.route``) records (``route``: that file, loaded; None: a mission from another app,
-    which records none)."""
+    which records none).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+    route : Route, optional
+        The route file, loaded.
+    path : str or Path, optional
+        The route file.
+
+    Returns
+    -------
+    Scene
+        The scene.
+
+    Raises
+    ------
+    ParameterError
+        When neither ``--target`` nor the route gives a scene.
+    """
     path = args.route if path is None else path
     if args.targets:
         return scene_from_args(args)
@@ -138,7 +217,23 @@ def scene_for_route(args, route=None, path=None):
 
 def flight_paths(given: list[str]) -> list[str]:
     """The flight files named, with each pattern (``*.kmz``, ``house.f?.plan``) expanded, in
-    natural order (f2 before f10)."""
+    natural order (f2 before f10).
+
+    Parameters
+    ----------
+    given : list of str
+        Paths and patterns.
+
+    Returns
+    -------
+    list of str
+        Paths.
+
+    Raises
+    ------
+    ParameterError
+        When a pattern matches no file.
+    """
     import glob
     import re
     from pathlib import Path
@@ -160,7 +255,20 @@ def flight_paths(given: list[str]) -> list[str]:
 
 def flights_and_scene(args):
     """The route ``args.route`` names (route files and missions from other apps, one or several:
-    battery flights judged together) and its scene: ``--target``, else the first route file's."""
+    battery flights judged together) and its scene: ``--target``, else the first route file's.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    route : Route
+        The flights joined.
+    scene : Scene
+        Their scene.
+    """
     from coverplan.flight.joining import join_flights
 
     paths = flight_paths(args.route)
@@ -175,6 +283,23 @@ def flights_and_scene(args):
 
 
 def camera_from_args(args) -> Camera:
+    """The camera the command line names: ``--drone``'s, a preset, or one given by sensor, focal length and image size.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    Camera
+        The camera.
+
+    Raises
+    ------
+    ParameterError
+        When no camera is given, a custom one only in part, two at once, or one beside ``--drone``.
+    """
     drone = drone_from_args(args)
     if args.camera and any(v is not None for v in (args.sensor_mm, args.focal_mm, args.image_px)):
         raise ParameterError("give either --camera or --sensor-mm/--focal-mm/--image-px, not both")
@@ -192,12 +317,35 @@ def camera_from_args(args) -> Camera:
 
 
 def drone_from_args(args):
+    """The drone profile ``--drone`` names, or None.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    DroneProfile or None
+        The profile.
+    """
     name = getattr(args, "drone", None)
     return get_drone(name) if name else None
 
 
 def flight_model_from_args(args):
-    """The flight-time model: the drone's (at --speed if given), else generic at --speed."""
+    """The flight-time model: the drone's (at --speed if given), else generic at --speed.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    FlightModel
+        The model.
+    """
     drone = drone_from_args(args)
     speed = None if args.speed is None else check_positive("--speed", args.speed)
     model = drone.flight_model(speed) if drone is not None else FlightModel(cruise_speed=speed or 5.0)
@@ -210,13 +358,40 @@ def flight_model_from_args(args):
 
 
 def export_options(args) -> dict:
+    """The writers' keyword arguments from the export flags.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    dict
+        ``firmware``, ``speed``, ``drone`` and ``wpml_heights``.
+    """
     return {"firmware": args.firmware, "speed": flight_model_from_args(args).cruise_speed, "drone": drone_from_args(args),
             "wpml_heights": args.wpml_heights}
 
 
 def mission_route(args, scene, path=None):
     """A QGroundControl / Mission Planner / Litchi / WPML mission (``path``, default
-    ``args.route``) as a route in the scene's frame."""
+    ``args.route``) as a route in the scene's frame.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line (camera, GSD, security).
+    scene : Scene
+        The scene.
+    path : str or Path, optional
+        The mission file.
+
+    Returns
+    -------
+    Route
+        The mission as a route.
+    """
     path = args.route if path is None else path
     missing = [flag for flag, v in (("--gsd", args.gsd), ("--security", args.security)) if v is None]
     if missing or not (args.camera or args.sensor_mm):
@@ -231,7 +406,13 @@ def mission_route(args, scene, path=None):
 
 
 def add_mission_args(p):
-    """The camera, GSD and security distance a mission from another app is judged by."""
+    """The camera, GSD and security distance a mission from another app is judged by.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The subcommand's parser.
+    """
     add_camera_args(p)
     p.add_argument("--gsd", type=float, default=None, metavar="M_PER_PX",
                    help="for missions: the GSD to judge the photos by")
@@ -245,6 +426,13 @@ FLIGHTS_HELP = ("a coverplan route (.json) or a mission: QGroundControl .plan, Q
 
 
 def add_camera_args(p):
+    """Add the camera flags: ``--camera`` or a custom sensor, focal length and image size.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The subcommand's parser.
+    """
     p.add_argument("--camera", default=None, metavar="PRESET",
                    help=f"camera preset: {', '.join(sorted(PRESETS))} (see 'coverplan cameras')")
     p.add_argument("--sensor-mm", nargs=2, type=float, default=None, metavar=("W", "H"),
@@ -257,7 +445,20 @@ def add_camera_args(p):
 
 def plan_options(args, formats: list[str]) -> dict:
     """planner.plan's keyword arguments from the planning flags ``plan`` and ``batch`` share;
-    ``formats``: the exports asked (``parse_formats(args.export)``)."""
+    ``formats``: the exports asked (``parse_formats(args.export)``).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+    formats : list of str
+        The exports asked.
+
+    Returns
+    -------
+    dict
+        ``plan``'s keyword arguments.
+    """
     items = args.max_mission_items
     if items is None and "qgc" in formats and args.firmware == "px4":
         items = PX4_MISSION_ITEMS  # a longer flight would be refused at export
@@ -282,6 +483,18 @@ ROUTE_CEILING = object()  # evaluate's default: the ceiling the route records
 
 
 def parse_ceiling(text: str) -> float | None:
+    """``--max-altitude``'s value: metres, or None for ``none``.
+
+    Parameters
+    ----------
+    text : str
+        The value given.
+
+    Returns
+    -------
+    float or None
+        Metres above the ground.
+    """
     if text.strip().lower() == "none":
         return None
     try:
@@ -291,7 +504,18 @@ def parse_ceiling(text: str) -> float | None:
 
 
 def gimbal_from_args(args):
-    """The gimbal range given on the command line (None: the drone's, or -90..30)."""
+    """The gimbal range given on the command line (None: the drone's, or -90..30).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    (float, float) or None
+        Lowest and highest pitch.
+    """
     if args.gimbal_min_deg is None and args.gimbal_max_deg is None:
         return None
     drone = drone_from_args(args)
@@ -301,7 +525,18 @@ def gimbal_from_args(args):
 
 
 def match_rule_from_args(args):
-    """The sfm rule's settings from the command line (None: the defaults)."""
+    """The sfm rule's settings from the command line (None: the defaults).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    MatchRule or None
+        The rule.
+    """
 
     given = {k: v for k, v in (("max_pair_deg", args.max_pair_deg), ("min_overlap", args.min_overlap),
                                ("min_neighbours", args.min_neighbours), ("sharp_views", args.sharp_views),
@@ -317,6 +552,13 @@ def match_rule_from_args(args):
 
 
 def add_mapper_arg(p):
+    """Add ``--mapper``.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The subcommand's parser.
+    """
     p.add_argument("--mapper", default="auto", choices=("auto", "incremental", "global"),
                    help="COLMAP's incremental mapper or its global one (GLOMAP); auto (default): global above "
                         f"{GLOBAL_MAPPING_ABOVE} photos, where the incremental one split flights that the global "
@@ -324,6 +566,13 @@ def add_mapper_arg(p):
 
 
 def add_simulate_args(p):
+    """Add the flags ``simulate`` and ``plan --simulate`` share: photo width, conditions, draws, matching, features, lens, texture, threads.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The subcommand's parser.
+    """
     p.add_argument("--photo-width", type=int, default=1024, metavar="PX",
                    help="width of the rendered photos (field of view kept; default 1024)")
     p.add_argument("--conditions", default="field", choices=("ideal", "field", "harsh"),
@@ -356,13 +605,35 @@ GROUPS = (("scene", "scene"), ("camera", "camera and drone"), ("quality", "quali
 
 
 def option_groups(p) -> dict:
-    """The help's groups of planning options, in the order a surveyor sets them."""
+    """The help's groups of planning options, in the order a surveyor sets them.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The subcommand's parser.
+
+    Returns
+    -------
+    dict of str to argparse._ArgumentGroup
+        The groups by key.
+    """
     return {key: p.add_argument_group(title) for key, title in GROUPS}
 
 
 def add_planning_args(p) -> dict:
     """The camera and planning flags ``plan`` and ``batch`` share, in the help's groups
-    (``option_groups``); returns the groups, for the command's own flags."""
+    (``option_groups``); returns the groups, for the command's own flags.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The subcommand's parser.
+
+    Returns
+    -------
+    dict of str to argparse._ArgumentGroup
+        The groups by key.
+    """
     groups = option_groups(p)
     c, q, s, f, x, a = (groups[k] for k in ("camera", "quality", "safety", "flight", "exports", "advanced"))
     add_camera_args(c)
@@ -477,6 +748,15 @@ def add_planning_args(p) -> dict:
 
 
 def add_zone_args(p, judged: bool = False):
+    """Add ``--keep-out`` and ``--keep-in``.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The subcommand's parser.
+    judged : bool
+        The zones judge a route rather than shape a plan (the help says so).
+    """
     verb = "judge against" if judged else "never enter"
     p.add_argument("--keep-out", nargs="+", default=[], metavar="ZONES",
                    help=f"{verb} these polygons (GeoJSON/GeoPackage/Shapefile, WGS84 or the models' CRS; "
@@ -490,6 +770,13 @@ def add_zone_args(p, judged: bool = False):
 
 
 def add_export_args(p):
+    """Add the export flags: ``--firmware`` and ``--wpml-heights``.
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The subcommand's parser.
+    """
     p.add_argument("--firmware", choices=["px4", "ardupilot"], default="px4", help="for the QGC .plan")
     p.add_argument("--wpml-heights", choices=["relative", "egm96"], default="relative",
                    help="DJI WPML heights: relative to the take-off point (default) or EGM96 (needs a height "

@@ -11,6 +11,18 @@ from coverplan.progress import Progress
 
 def cmd_batch(args) -> int:
 
+    """Run ``coverplan batch``: plan many buildings of a city model on Dask.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        1 when a building failed, else 0.
+    """
     if args.workers is not None and args.workers < 1:
         raise ParameterError(f"--workers must be at least 1, got {args.workers}")
     if args.workers is not None and args.scheduler:
@@ -45,7 +57,13 @@ def cmd_batch(args) -> int:
 
 
 def register(sub) -> None:
-    """Add the subcommand to ``sub`` (argparse subparsers)."""
+    """Add the subcommand to ``sub`` (argparse subparsers).
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subcommands.
+    """
     p = sub.add_parser("batch", help="plan every chosen building of a CityGML/CityJSON file, on Dask")
     p.add_argument("city", metavar="CITYFILE", help="CityGML (.gml) or CityJSON (.city.json, .json, .jsonl; .gz too)")
     which = p.add_argument_group("buildings (one of; --bbox and --where combine)")

@@ -18,6 +18,18 @@ from coverplan.sfm.colmap import SPATIAL_NEIGHBOURS
 
 
 def cmd_check(args) -> int:
+    """Run ``coverplan check``: reconstruct a flight's real photos and judge them.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        1 under ``--strict`` when the photos would not reconstruct, else 0.
+    """
     from pathlib import Path
 
     gsd, security = check_positive("--gsd", args.gsd), check_positive("--security", args.security)
@@ -46,7 +58,13 @@ def cmd_check(args) -> int:
 
 
 def register(sub) -> None:
-    """Add the subcommand to ``sub`` (argparse subparsers)."""
+    """Add the subcommand to ``sub`` (argparse subparsers).
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subcommands.
+    """
     p = sub.add_parser("check", help="reconstruct a flight's real photos (EXIF/XMP positions) and say what is missing")
     p.add_argument("photos", metavar="PHOTOS_DIR", help="folder of the flight's photos (JPEG with GNSS tags)")
     add_scene_args(p, targets_positional=False)

@@ -22,6 +22,18 @@ from coverplan.progress import Progress
 
 
 def cmd_evaluate(args) -> int:
+    """Run ``coverplan evaluate``: judge a route or mission with the independent evaluator.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        1 under ``--strict`` when the route fails a rule, else 0.
+    """
     if args.spacing is not None:
         check_positive("--spacing", args.spacing)
     route, scene = flights_and_scene(args)
@@ -51,7 +63,13 @@ def cmd_evaluate(args) -> int:
 
 
 def register(sub) -> None:
-    """Add the subcommand to ``sub`` (argparse subparsers)."""
+    """Add the subcommand to ``sub`` (argparse subparsers).
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subcommands.
+    """
     p = sub.add_parser("evaluate", help="check a route's or another app's mission's coverage and safety")
     p.add_argument("route", nargs="+", metavar="ROUTE", help=FLIGHTS_HELP)
     add_scene_args(p, targets_positional=False, recorded=True)

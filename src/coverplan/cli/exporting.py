@@ -13,6 +13,18 @@ from coverplan.io.load import _check_geodetic_origin
 
 
 def cmd_export(args) -> int:
+    """Run ``coverplan export``: write a route file in flight-app formats.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        0.
+    """
     formats = parse_formats(args.format)
     if not formats:
         raise ParameterError("give --format with one or more of: qgc, wpl, litchi, kml, geojson, csv")
@@ -38,7 +50,13 @@ def cmd_export(args) -> int:
 
 
 def register(sub) -> None:
-    """Add the subcommand to ``sub`` (argparse subparsers)."""
+    """Add the subcommand to ``sub`` (argparse subparsers).
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subcommands.
+    """
     p = sub.add_parser("export", help="write a route for autopilots: QGC .plan, WPL, Litchi, DJI WPML, KML, GeoJSON, CSV")
     p.add_argument("route", metavar="ROUTE.json", help="a route written by coverplan plan")
     p.add_argument("--format", required=True, metavar="FORMATS",

@@ -14,7 +14,13 @@ from coverplan.errors import CoverplanError
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The ``coverplan`` parser: one subcommand per module of this package."""
+    """The ``coverplan`` parser: one subcommand per module of this package.
+
+    Returns
+    -------
+    argparse.ArgumentParser
+        The parser.
+    """
     parser = Parser(prog="coverplan", description="Plan safe drone photo flights that cover a building.")
     parser.add_argument("--version", action="version", version=f"coverplan {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
@@ -40,7 +46,20 @@ class _Unparsed(Exception):
 
 def missing_input(parser: argparse.ArgumentParser, argv: list[str]) -> str | None:
     """The one-line error for an input file that is not there, found with the options' own
-    checks relaxed (a missing file is the first thing to tell, not a missing ``--gsd``)."""
+    checks relaxed (a missing file is the first thing to tell, not a missing ``--gsd``).
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The parser.
+    argv : list of str
+        The command line.
+
+    Returns
+    -------
+    str or None
+        The error.
+    """
     if not argv or argv[0] not in INPUTS or {"-h", "--help"} & set(argv):
         return None
     sub = parser._subparsers._group_actions[0].choices[argv[0]]
@@ -70,6 +89,18 @@ def missing_input(parser: argparse.ArgumentParser, argv: list[str]) -> str | Non
 
 
 def main(argv=None) -> int:
+    """The ``coverplan`` command.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments; ``sys.argv[1:]`` when None.
+
+    Returns
+    -------
+    int
+        The exit status: 0 done, 1 a rule failed under ``--strict``, 2 bad input or an error.
+    """
     parser = build_parser()
     argv = sys.argv[1:] if argv is None else list(argv)
     missing = missing_input(parser, argv)

@@ -27,6 +27,18 @@ from coverplan.world.merge import merge_into_target
 
 
 def cmd_plan(args) -> int:
+    """Run ``coverplan plan``: plan, evaluate, save, report and export a flight.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
     from pathlib import Path
 
 
@@ -84,7 +96,13 @@ def cmd_plan(args) -> int:
 
 
 def register(sub) -> None:
-    """Add the subcommand to ``sub`` (argparse subparsers)."""
+    """Add the subcommand to ``sub`` (argparse subparsers).
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subcommands.
+    """
     p = sub.add_parser("plan", help="plan a safe flight covering the target surface",
                        usage="coverplan plan TARGET [TARGET ...] (--drone NAME | --camera PRESET | --sensor-mm W H "
                              "--focal-mm F --image-px W H) --gsd M_PER_PX --security M -o ROUTE.json [options]",

@@ -11,6 +11,18 @@ from coverplan.sfm.simulate import Simulation
 
 
 def cmd_report(args) -> int:
+    """Run ``coverplan report``: write the HTML report and figures of a route.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        0.
+    """
     if not args.report and not args.plot:
         raise ParameterError("give -o REPORT.html and/or --plot PREFIX")
     route, scene = flights_and_scene(args)
@@ -30,7 +42,13 @@ def cmd_report(args) -> int:
 
 
 def register(sub) -> None:
-    """Add the subcommand to ``sub`` (argparse subparsers)."""
+    """Add the subcommand to ``sub`` (argparse subparsers).
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subcommands.
+    """
     for name, helptext in (("report", "write the HTML flight report (and/or PNG figures) of a route"),
                            ("plot", "write PNG figures (and/or the HTML report) of a route")):
         p = sub.add_parser(name, help=helptext)

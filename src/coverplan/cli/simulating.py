@@ -15,6 +15,18 @@ from coverplan.sfm.simulate import simulate
 
 
 def cmd_simulate(args) -> int:
+    """Run ``coverplan simulate``: render a route's photos under field conditions and reconstruct them.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed command line.
+
+    Returns
+    -------
+    int
+        1 under ``--strict`` when the flight would not reconstruct, else 0.
+    """
     apply_quick(args)
     route = Route.load(args.route)
     scene = scene_for_route(args, route)
@@ -26,7 +38,13 @@ QUICK = {"draws": 1, "photo_width": 640, "max_features": 4096, "neighbours": 20}
 
 def apply_quick(args) -> None:
     """``--quick``: the options left at their defaults take the quick preset's values (one draw
-    of 640 px photos with 4,096 features each, 20 spatial neighbours)."""
+    of 640 px photos with 4,096 features each, 20 spatial neighbours).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Changed in place.
+    """
     if not getattr(args, "quick", False):
         return
     defaults = simulate_defaults(argparse.Namespace())
@@ -36,7 +54,22 @@ def apply_quick(args) -> None:
 
 
 def time_told(route, args, width: int) -> str:
-    """The line told before the work starts: photos, draws and the estimated time."""
+    """The line told before the work starts: photos, draws and the estimated time.
+
+    Parameters
+    ----------
+    route : Route
+        The route.
+    args : argparse.Namespace
+        The parsed command line.
+    width : int
+        Photo width, px.
+
+    Returns
+    -------
+    str
+        The line.
+    """
     from coverplan.progress import format_duration
     from coverplan.sfm.estimate import simulate_seconds
 
@@ -51,7 +84,18 @@ def time_told(route, args, width: int) -> str:
 
 
 def simulate_defaults(args):
-    """``plan --simulate``'s options: simulate's defaults, with plan's --quiet, --verbose and --strict."""
+    """``plan --simulate``'s options: simulate's defaults, with plan's --quiet, --verbose and --strict.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``plan``'s parsed command line.
+
+    Returns
+    -------
+    argparse.Namespace
+        ``simulate``'s options.
+    """
     parser = argparse.ArgumentParser()
     add_simulate_args(parser)
     ns = parser.parse_args([])
@@ -62,7 +106,24 @@ def simulate_defaults(args):
 
 def simulate_route(route, scene, out_dir, args) -> int:
     """Render, reconstruct and judge; prints the table (or JSON), exit 1 under --strict when
-    the flight would not reconstruct."""
+    the flight would not reconstruct.
+
+    Parameters
+    ----------
+    route : Route
+        The route.
+    scene : Scene
+        Its scene.
+    out_dir : str or Path
+        Where the photos and models go.
+    args : argparse.Namespace
+        ``simulate``'s options.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
     from pathlib import Path
 
 
@@ -94,7 +155,13 @@ def simulate_route(route, scene, out_dir, args) -> int:
 
 
 def register(sub) -> None:
-    """Add the subcommand to ``sub`` (argparse subparsers)."""
+    """Add the subcommand to ``sub`` (argparse subparsers).
+
+    Parameters
+    ----------
+    sub : argparse._SubParsersAction
+        The subcommands.
+    """
     p = sub.add_parser("simulate", help="render a route's photos, reconstruct them with COLMAP, judge the result")
     p.add_argument("route", metavar="ROUTE.json", help="a route written by coverplan plan")
     add_scene_args(p, targets_positional=False, recorded=True)

@@ -7,7 +7,20 @@ from coverplan.report.takeoff import takeoff_point, takeoff_text
 
 def plan_summary(route, verbose: bool = False) -> str:
     """The summary ``plan`` prints: what a pilot needs first, in plain words and rounded figures;
-    ``verbose``: the planner's internals after it."""
+    ``verbose``: the planner's internals after it.
+
+    Parameters
+    ----------
+    route : Route
+        The planned route.
+    verbose : bool
+        Add the planner's internals.
+
+    Returns
+    -------
+    str
+        The summary.
+    """
     rows = pilot_rows(route)
     if verbose:
         rows += [("", ""), ("planner", "")] + internal_rows(route)
@@ -16,7 +29,18 @@ def plan_summary(route, verbose: bool = False) -> str:
 
 
 def pilot_rows(route) -> list[tuple[str, str]]:
-    """Photos, flights and minutes, path, GSD, heights, take-off, coverage, clearance, what is missing."""
+    """Photos, flights and minutes, path, GSD, heights, take-off, coverage, clearance, what is missing.
+
+    Parameters
+    ----------
+    route : Route
+        The planned route.
+
+    Returns
+    -------
+    list of (str, str)
+        Label and value.
+    """
     m = route.metrics
     ev = m.get("evaluation") or {}
     flights = m.get("flights") or []
@@ -100,7 +124,18 @@ def _limits(route) -> str:
 
 
 def internal_rows(route) -> list[tuple[str, str]]:
-    """The planner's figures (``plan -v``): LP bound, edge views, model, tour, sampling, timings."""
+    """The planner's figures (``plan -v``): LP bound, edge views, model, tour, sampling, timings.
+
+    Parameters
+    ----------
+    route : Route
+        The planned route.
+
+    Returns
+    -------
+    list of (str, str)
+        Label and value.
+    """
     m = route.metrics
     rows = []
     if m.get("lp_lower_bound_shots"):
@@ -135,7 +170,18 @@ def photo_sets_row(graph: dict) -> tuple[str, str]:
     """The summary's row for the evaluator's sets of linked photos (``evaluation.shot_graph``):
     more than one set is said loudly, since SfM then tends to return a model per set (the
     triangle prism's 51-photo ``--link-test samples`` plan, in four sets: 16-25 of 51 photos in
-    the largest of 3-4 models in three field draws, docs/reconstruction.md)."""
+    the largest of 3-4 models in three field draws, docs/reconstruction.md).
+
+    Parameters
+    ----------
+    graph : dict
+        ``evaluation.shot_graph``'s summary.
+
+    Returns
+    -------
+    (str, str)
+        Label and value.
+    """
     sets, largest, shots = graph["components"], graph["largest_component"], graph["shots"]
     if sets <= 1:
         text = f"1: every photo linked to the others ({graph['link_test']} link test, fresh samples)"
@@ -183,7 +229,20 @@ def _flight_rows(route) -> list[tuple[str, str]]:
 
 
 def summarize_notes(notes: list[str], limit: int = 10) -> list[str]:
-    """Notes that repeat with another mesh's name or another count are told once, with a tally."""
+    """Notes that repeat with another mesh's name or another count are told once, with a tally.
+
+    Parameters
+    ----------
+    notes : list of str
+        The notes.
+    limit : int
+        The most told.
+
+    Returns
+    -------
+    list of str
+        The notes, each once.
+    """
     import re
     groups: dict[str, list[str]] = {}
     for note in notes:

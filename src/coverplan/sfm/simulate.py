@@ -345,7 +345,7 @@ def photo_lens(kind: str, route) -> Lens:
     Raises
     ------
     ParameterError
-        ``drone`` for a route without a profile.
+        ``drone`` for a route without a profile, or whose drone's lens has no published distortion.
     """
     if kind not in LENSES:
         raise ParameterError(f"unknown lens {kind!r}; choose one of {', '.join(LENSES)}")
