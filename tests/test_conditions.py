@@ -13,7 +13,7 @@ from coverplan.cli import main
 from coverplan.equipment.drones import DRONES, POSITION_MARGIN_M, TYPICAL_GNSS, get_drone, security_shortfall
 from coverplan.equipment.margin import NO_MARGIN, margin_for, tightened
 from coverplan.flight.route import Route
-from coverplan.sfm import render
+from coverplan.sfm import field_render, materials, render
 from coverplan.sfm.conditions import BIAS_CORRELATION_S, CONDITIONS, fly, get_conditions, photo_times
 from coverplan.shots.reconstructability import MatchRule
 from tests.helpers import MESHES
@@ -91,8 +91,8 @@ def test_textures_fade_where_pixels_are_too_coarse_to_show_them():
     """Physical scale: a brick wall shows its 7.1 cm courses up close and is plain from afar."""
     up = np.linspace(0.0, 3.0, 3001)
     along = np.full_like(up, 0.31)  # inside a brick in every course: only the bed joints repeat
-    near = render.brick(along, up, np.full_like(up, 0.005), salt=3)
-    far = render.brick(along, up, np.full_like(up, 0.3), salt=3)
+    near = materials.brick(along, up, np.full_like(up, 0.005), salt=3)
+    far = materials.brick(along, up, np.full_like(up, 0.3), salt=3)
     spectrum = np.abs(np.fft.rfft(near - near.mean()))
     freq = np.fft.rfftfreq(len(up), d=up[1] - up[0])
     assert 1.0 / freq[np.argmax(spectrum[1:]) + 1] == pytest.approx(0.071, rel=0.05)
@@ -100,8 +100,8 @@ def test_textures_fade_where_pixels_are_too_coarse_to_show_them():
     rng = np.random.default_rng(0)
     pts = rng.random((20000, 3)) * 5.0
     lattice = render.noise_lattice(0)
-    fine = render.physical_noise(pts, np.full(len(pts), 0.003, np.float32), lattice)
-    coarse = render.physical_noise(pts, np.full(len(pts), 0.5, np.float32), lattice)
+    fine = materials.physical_noise(pts, np.full(len(pts), 0.003, np.float32), lattice)
+    coarse = materials.physical_noise(pts, np.full(len(pts), 0.5, np.float32), lattice)
     assert coarse.std() < 0.75 * fine.std()
 
 
@@ -110,8 +110,8 @@ def test_the_two_texture_families_differ():
     x = np.linspace(0.0, 2.0, 4000)
     pts = np.column_stack([x, np.full_like(x, 0.3), np.full_like(x, 1.1)])
     fp = np.full(len(pts), 0.002, np.float32)
-    cells = render.physical_cells(pts, fp)
-    noise = render.physical_noise(pts, fp, render.noise_lattice(0))
+    cells = materials.physical_cells(pts, fp)
+    noise = materials.physical_noise(pts, fp, render.noise_lattice(0))
     assert abs(np.corrcoef(cells, noise)[0, 1]) < 0.3
     # Inside a stone the tone is nearly constant, with jumps at joints: heavy-tailed steps.
     def kurtosis(v):
@@ -122,10 +122,10 @@ def test_the_two_texture_families_differ():
 
 def test_windows_are_a_regular_grid():
     along, up = np.meshgrid(np.linspace(0, 26.0, 521), np.linspace(0, 9.0, 181))
-    glass, frame = render.windows(along.ravel(), up.ravel())
+    glass, frame = materials.windows(along.ravel(), up.ravel())
     share = glass.mean() + frame.mean()
-    assert share == pytest.approx(render.WINDOW_W * render.WINDOW_H / (render.WINDOW_BAY_M * render.STOREY_M), rel=0.1)
-    shifted, _ = render.windows(along.ravel() + render.WINDOW_BAY_M, up.ravel())
+    assert share == pytest.approx(materials.WINDOW_W * materials.WINDOW_H / (materials.WINDOW_BAY_M * materials.STOREY_M), rel=0.1)
+    shifted, _ = materials.windows(along.ravel() + materials.WINDOW_BAY_M, up.ravel())
     assert (shifted == glass).mean() > 0.99  # identical windows, bay after bay
 
 
@@ -134,7 +134,7 @@ def test_field_photo_differs_from_the_ideal_one_but_shows_the_same_building():
     cam = render.PhotoCamera.of(get_camera("phantom4pro"), 320)
     pos, heading, pitch = np.array([5.0, -12.0, 4.0]), 0.0, -10.0
     ideal = render.PhotoRenderer(scene, cam, 0.05, 40.0).render(pos, heading, pitch)
-    field = render.FieldRenderer(scene, cam, 40.0, facades=True, seed=1)
+    field = field_render.FieldRenderer(scene, cam, 40.0, facades=True, seed=1)
     sun = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
     img, seen = field.render_flown(pos, heading, pitch, sun, 1.0, 1.0, np.zeros(3), 1 / 500, np.random.default_rng(0))
     assert img.shape == ideal.shape and img.dtype == np.uint8 and len(seen)
@@ -149,10 +149,10 @@ def test_motion_blur_smears_along_the_motion():
     img = np.zeros((41, 41))
     img[20, 20] = 1.0
     right_motion = np.array([5.0, 0.0, 0.0])  # heading 0: image right is +x
-    out = render._motion_blur(img, right_motion, 0.01, 0.0, 0.0, np.array([10.0]), 1000.0)
+    out = field_render._motion_blur(img, right_motion, 0.01, 0.0, 0.0, np.array([10.0]), 1000.0)
     rows, cols = np.nonzero(out > 1e-6)
     assert np.ptp(cols) >= 4 and np.ptp(rows) == 0 and out.sum() == pytest.approx(1.0)
-    still = render._motion_blur(img, np.zeros(3), 0.01, 0.0, 0.0, np.array([10.0]), 1000.0)
+    still = field_render._motion_blur(img, np.zeros(3), 0.01, 0.0, 0.0, np.array([10.0]), 1000.0)
     assert np.array_equal(still, img)
 
 
@@ -229,8 +229,8 @@ def test_centre_weighted_metering_exposes_a_narrow_face_against_the_sky():
     pos, heading, pitch = np.array([25.0 - 11.5 - 14.0, 25.0, 17.0]), 90.0, 0.0  # facing east, at the tower
     sun = np.array([0.8, 0.0, 0.6])  # from the east: the west face is in shade
     grey = {}
-    for metering in render.METERING:
-        r = render.FieldRenderer(scene, cam, 40.0, seed=1, metering=metering)
+    for metering in field_render.METERING:
+        r = field_render.FieldRenderer(scene, cam, 40.0, seed=1, metering=metering)
         img, _ = r.render_flown(pos, heading, pitch, sun, 1.0, 1.0, np.zeros(3), 1 / 500, None)
         dirs = cam.rays(heading, pitch)
         _d, mesh, face = r.rays.first_hit(np.broadcast_to(pos, dirs.shape), dirs)
@@ -239,12 +239,12 @@ def test_centre_weighted_metering_exposes_a_narrow_face_against_the_sky():
         assert 0.05 < on_face.mean() < 0.5  # a narrow part of the frame
         grey[metering] = float(img.ravel()[on_face].mean())
     assert grey["center"] > grey["average"] + 15
-    mid = 255 * render.MID_GREY ** (1 / render.GAMMA)
+    mid = 255 * field_render.MID_GREY ** (1 / field_render.GAMMA)
     assert abs(grey["center"] - mid) < abs(grey["average"] - mid)
-    w = render.metering_weights(cam.height, cam.width)
+    w = field_render.metering_weights(cam.height, cam.width)
     assert w.sum() == pytest.approx(1.0) and w.reshape(cam.height, cam.width)[cam.height // 2, cam.width // 2] == w.max()
     with pytest.raises(Exception, match="unknown metering"):
-        render.metering_weights(4, 6, "spot")
+        field_render.metering_weights(4, 6, "spot")
 
 
 def test_the_draws_table_names_the_worst_draws_class_and_gives_the_median(tmp_path):

@@ -26,8 +26,8 @@ from coverplan.equipment.drones import (
 from coverplan.equipment.flighttime import FlightModel
 from coverplan.errors import ParameterError
 from coverplan.flight.passing import route_leg_seconds, travel_directions
+from coverplan.sfm.field_render import check_metering
 from coverplan.sfm.render import _SUN as FIXED_SUN
-from coverplan.sfm.render import check_metering
 
 BIAS_CORRELATION_S = 300.0  # the flight-wide error's drift: correlated over about 5 minutes
 BATTERY_SWAP_S = 300.0  # between two battery flights

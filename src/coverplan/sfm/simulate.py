@@ -29,15 +29,10 @@ from coverplan.sfm.colmap import (
     run_sfm,
 )
 from coverplan.sfm.conditions import Conditions, fly, get_conditions
+from coverplan.sfm.field_render import FieldRenderer
 from coverplan.sfm.judge import judge_samples, reconstructed_surface
 from coverplan.sfm.pairs import covisible_pairs
-from coverplan.sfm.render import (
-    FieldRenderer,
-    PhotoCamera,
-    check_texture,
-    ground_reach,
-    ideal_renderer,
-)
+from coverplan.sfm.render import PhotoCamera, check_texture, ground_reach, ideal_renderer
 
 DEFAULT_WIDTH_PX = 1024
 JUDGE_SPACING_M = 0.1
