@@ -23,13 +23,15 @@ import time
 from pathlib import Path
 
 import numpy as np
+
 from common import MESHES, table, write_json
 from coverplan import load_scene, plan
 from coverplan.equipment.drones import get_drone
 from coverplan.progress import Progress
-from coverplan.sfm.colmap import MAX_FEATURES, _map, aligned_models, require_pycolmap
+from coverplan.sfm.colmap import MAX_FEATURES, aligned_models, require_pycolmap
 from coverplan.sfm.conditions import fly, get_conditions
 from coverplan.sfm.judge import judge_samples, reconstructed_surface
+from coverplan.sfm.mapping import _map
 from coverplan.sfm.simulate import JUDGE_SPACING_M, photo_names, simulate
 
 DRONE, SECURITY = "m3e", 2.0

@@ -147,7 +147,7 @@ def test_check_of_a_real_size_flight_goes_through_spatial_matching(tmp_path, cap
 
 def test_a_colmap_failure_names_its_stage_and_a_rerun_resumes(tmp_path, capsys, monkeypatch):
     pytest.importorskip("pycolmap")
-    from coverplan.sfm import colmap
+    from coverplan.sfm import colmap, database
 
     scene = load_scene(MESHES / "gabled_house.obj", geodetic_origin=[float(v) for v in ORIGIN])
     route = plan(scene, get_camera("phantom4pro"), gsd=0.004, security=3.0, edge_views=False)
@@ -164,8 +164,8 @@ def test_a_colmap_failure_names_its_stage_and_a_rerun_resumes(tmp_path, capsys, 
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1
     assert "COLMAP failed in" in err[0] and "mapping" in err[0] and "Traceback" not in err[0]
-    database = out / "colmap" / "database.db"
-    assert str(database) in err[0] and database.exists()
+    db_file = out / "colmap" / "database.db"
+    assert str(db_file) in err[0] and db_file.exists()
 
     # The rerun starts after the stages that finished: features and matches are not made again.
     monkeypatch.undo()
@@ -177,8 +177,8 @@ def test_a_colmap_failure_names_its_stage_and_a_rerun_resumes(tmp_path, capsys, 
             return real(*args, **kwargs)
         return call
 
-    for name in ("extract_features", "polled"):  # polled runs COLMAP's matching
-        monkeypatch.setattr(colmap, name, counted(getattr(colmap, name)))
+    for module, name in ((colmap, "extract_features"), (colmap, "polled"), (database, "polled")):  # polled matches
+        monkeypatch.setattr(module, name, counted(getattr(module, name)))
     command = ["check", str(folder), "--target", str(MESHES / "gabled_house.obj"), "--geo-origin", *ORIGIN,
                "-o", str(out), "--json", "-v"]
     assert main(command) == 0

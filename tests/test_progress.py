@@ -6,7 +6,7 @@ import time
 import pytest
 
 from coverplan.progress import clock_bar
-from coverplan.sfm.colmap import GLOBAL_MAPPING_S_PER_PHOTO, global_mapping_seconds
+from coverplan.sfm.mapping import GLOBAL_MAPPING_S_PER_PHOTO, global_mapping_seconds
 
 
 class Bar:

@@ -155,9 +155,10 @@ def test_field_verdict_comes_from_colmap_output(field, house):
 def test_global_mapper_rebuilds_the_same_flight(field, house, tmp_path):
     """COLMAP's global mapper (``--mapper global``) on the field draw's own matches: every photo
     in one model, aligned to where the photos were taken, the house rebuilt to the bar."""
-    from coverplan.sfm.colmap import aligned_models, global_mapping_seconds, map_models
+    from coverplan.sfm.colmap import aligned_models
     from coverplan.sfm.conditions import fly, get_conditions
     from coverplan.sfm.judge import judge_samples, reconstructed_surface
+    from coverplan.sfm.mapping import global_mapping_seconds, map_models
     from coverplan.sfm.simulate import photo_names
     sim, out = field
     scene, route = house
@@ -253,8 +254,8 @@ def test_a_bar_follows_the_rows_colmap_writes_and_errors_reach_the_caller(tmp_pa
     import sqlite3
     import time
 
-    from coverplan.sfm import colmap
-    monkeypatch.setattr(colmap, "POLL_S", 0.02)
+    from coverplan.sfm import database
+    monkeypatch.setattr(database, "POLL_S", 0.02)
     db = tmp_path / "database.db"
 
     def write(rows, fail=False):
@@ -269,17 +270,17 @@ def test_a_bar_follows_the_rows_colmap_writes_and_errors_reach_the_caller(tmp_pa
             raise RuntimeError("COLMAP stopped")
 
     ticks = []
-    colmap.polled(pycolmap, lambda _token: write(6), db, "keypoints", 5, ticks.append)
+    database.polled(pycolmap, lambda _token: write(6), db, "keypoints", 5, ticks.append)
     assert sum(ticks) == 5 and len(ticks) >= 3 and all(t > 0 for t in ticks), ticks
     with pytest.raises(RuntimeError, match="COLMAP stopped"):
-        colmap.polled(pycolmap, lambda _token: write(1, fail=True), db, "keypoints", 10, ticks.append)
+        database.polled(pycolmap, lambda _token: write(1, fail=True), db, "keypoints", 10, ticks.append)
 
 
 def test_ctrl_c_cancels_colmap_and_waits_for_it(tmp_path, monkeypatch):
     """Interrupted while COLMAP works (Ctrl-C arrives in the caller's thread), ``polled``
     cancels pycolmap's token and waits for the call to stop before the interruption goes on."""
-    from coverplan.sfm import colmap
-    monkeypatch.setattr(colmap, "POLL_S", 0.02)
+    from coverplan.sfm import database
+    monkeypatch.setattr(database, "POLL_S", 0.02)
     stopped = []
 
     def work(token):
@@ -290,9 +291,9 @@ def test_ctrl_c_cancels_colmap_and_waits_for_it(tmp_path, monkeypatch):
     def tick(_n):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(colmap, "_rows", lambda _db, _table: 1)
+    monkeypatch.setattr(database, "_rows", lambda _db, _table: 1)
     with pytest.raises(KeyboardInterrupt):
-        colmap.polled(pycolmap, work, tmp_path / "database.db", "keypoints", 10, tick)
+        database.polled(pycolmap, work, tmp_path / "database.db", "keypoints", 10, tick)
     assert stopped == [True]
 
 
@@ -305,7 +306,7 @@ def test_spatial_pairs_are_the_pairs_colmaps_spatial_matcher_takes(tmp_path, nei
     from PIL import Image
     from scipy.ndimage import gaussian_filter
 
-    from coverplan.sfm.colmap import extract_features, write_position_priors
+    from coverplan.sfm.database import extract_features, write_position_priors
     from coverplan.sfm.pairs import spatial_pairs
     pycolmap.logging.minloglevel = 2
     rng = np.random.default_rng(neighbours)
@@ -343,7 +344,7 @@ def test_spatial_pairs_are_the_pairs_colmaps_spatial_matcher_takes(tmp_path, nei
 
 
 def test_auto_mapper_maps_large_flights_globally():
-    from coverplan.sfm.colmap import GLOBAL_MAPPING_ABOVE, pick_mapper
+    from coverplan.sfm.mapping import GLOBAL_MAPPING_ABOVE, pick_mapper
     assert pick_mapper("auto", GLOBAL_MAPPING_ABOVE) == "incremental"
     assert pick_mapper("auto", GLOBAL_MAPPING_ABOVE + 1) == "global"
     assert pick_mapper("incremental", 10_000) == "incremental" and pick_mapper("global", 3) == "global"
@@ -378,7 +379,7 @@ def test_colmap_option_overrides_reach_the_options_and_refuse_unknown_paths():
     """``set_options`` (the mapper experiments of benchmarks/simulate_scale.py --remap) sets
     nested pycolmap options by dotted path and names a path pycolmap does not have."""
     from coverplan.errors import ParameterError
-    from coverplan.sfm.colmap import set_options
+    from coverplan.sfm.mapping import set_options
     options = pycolmap.GlobalPipelineOptions()
     set_options(options, {"mapper.ba_num_iterations": 1, "mapper.global_positioning.min_num_view_per_track": 6})
     assert options.mapper.ba_num_iterations == 1

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from coverplan.batch.run import BatchSettings, parse_where, run_batch
-from coverplan.cli.args import add_planning_args, camera_from_args, export_options, plan_options
+from coverplan.cli.args import camera_from_args, export_options, plan_options
+from coverplan.cli.flags import add_planning_args
 from coverplan.errors import ParameterError
 from coverplan.io import parse_formats
 from coverplan.progress import Progress

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import sys
 
-from coverplan.cli.args import add_mapper_arg, add_scene_args, scene_from_args
+from coverplan.cli.args import scene_from_args
+from coverplan.cli.flags import add_mapper_arg, add_scene_args
 from coverplan.equipment.camera import check_positive
 from coverplan.errors import ParameterError
 from coverplan.evaluation import evaluate

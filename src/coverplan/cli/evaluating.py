@@ -4,14 +4,13 @@ from __future__ import annotations
 
 import sys
 
-from coverplan.cli.args import (
+from coverplan.cli.args import flight_paths, flights_and_scene
+from coverplan.cli.flags import (
     FLIGHTS_HELP,
     ROUTE_CEILING,
     add_mission_args,
     add_scene_args,
     add_zone_args,
-    flight_paths,
-    flights_and_scene,
     parse_ceiling,
 )
 from coverplan.equipment.camera import check_positive

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import sys
 
-from coverplan.cli.args import add_export_args, export_options
+from coverplan.cli.args import export_options
+from coverplan.cli.flags import add_export_args
 from coverplan.errors import ParameterError
 from coverplan.flight.route import Route
 from coverplan.geometry.geo import check_crs

@@ -4,15 +4,8 @@ from __future__ import annotations
 
 import sys
 
-from coverplan.cli.args import (
-    add_planning_args,
-    add_scene_args,
-    camera_from_args,
-    drone_from_args,
-    export_options,
-    plan_options,
-    scene_from_args,
-)
+from coverplan.cli.args import camera_from_args, drone_from_args, export_options, plan_options, scene_from_args
+from coverplan.cli.flags import add_planning_args, add_scene_args
 from coverplan.cli.simulating import simulate_defaults, simulate_route
 from coverplan.cli.summary import plan_summary
 from coverplan.equipment.drones import security_shortfall

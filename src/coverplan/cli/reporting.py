@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from coverplan.cli.args import FLIGHTS_HELP, add_mission_args, add_scene_args, flights_and_scene
+from coverplan.cli.args import flights_and_scene
+from coverplan.cli.flags import FLIGHTS_HELP, add_mission_args, add_scene_args
 from coverplan.errors import ParameterError
 from coverplan.evaluation import evaluate
 from coverplan.job import write_pictures

@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from coverplan.cli.args import add_scene_args, add_simulate_args, scene_for_route
+from coverplan.cli.args import scene_for_route
+from coverplan.cli.flags import add_scene_args, add_simulate_args
 from coverplan.equipment.camera import check_positive
 from coverplan.errors import ParameterError
 from coverplan.files import json_text

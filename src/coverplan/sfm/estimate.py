@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import os
 
-from coverplan.sfm.colmap import pick_mapper
+from coverplan.sfm.mapping import pick_mapper
 
 # Seconds on 2 cores at 640 px and 4,096 features per photo (the --quick preset): the gabled
 # house (52 photos, exhaustive matching, incremental mapper) and the ring prism (229 photos,

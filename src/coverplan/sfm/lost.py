@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from coverplan.sfm.colmap import open_database
+from coverplan.sfm.database import open_database
 
 PAIR_BASE = 2147483647  # COLMAP's pair id: PAIR_BASE * first image id + second image id
 MIN_INLIERS = 15  # COLMAP's two-view verification keeps a pair from this many inliers (its default)

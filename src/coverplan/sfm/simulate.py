@@ -20,17 +20,11 @@ from coverplan.equipment.lens import PINHOLE, Lens
 from coverplan.errors import InputFileError, ParameterError
 from coverplan.files import json_text
 from coverplan.progress import Progress
-from coverplan.sfm.colmap import (
-    MAX_FEATURES,
-    SPATIAL_NEIGHBOURS,
-    check_mapper,
-    check_matching,
-    require_pycolmap,
-    run_sfm,
-)
+from coverplan.sfm.colmap import MAX_FEATURES, SPATIAL_NEIGHBOURS, check_matching, require_pycolmap, run_sfm
 from coverplan.sfm.conditions import Conditions, fly, get_conditions
 from coverplan.sfm.field_render import FieldRenderer
 from coverplan.sfm.judge import judge_samples, reconstructed_surface
+from coverplan.sfm.mapping import check_mapper
 from coverplan.sfm.pairs import covisible_pairs
 from coverplan.sfm.render import PhotoCamera, check_texture, ground_reach, ideal_renderer
 
@@ -390,7 +384,7 @@ def simulate(route, scene, out_dir, *, conditions: str = DEFAULT_CONDITIONS, dra
         views share most surface.
     mapper : {"auto", "incremental", "global"}
         COLMAP's incremental mapper, its global one (GLOMAP), or "auto": the global one for
-        flights of more than ``colmap.GLOBAL_MAPPING_ABOVE`` photos.
+        flights of more than ``mapping.GLOBAL_MAPPING_ABOVE`` photos.
     max_features : int
         SIFT features per photo (COLMAP's default 8192). Fewer match faster and rebuild less.
     lens : {"pinhole", "drone"}
