@@ -526,7 +526,7 @@ def test_edge_views_look_along_the_bisector_of_every_turn():
     Every edge view stands 8 m from the box with its nearest point on an edge (distance and
     nearest point worked out here from the box's bounds), looks straight at that point, and
     sees both faces there at 45 deg; the corners and the eaves all get views, the flat faces none."""
-    from coverplan.shots.candidates import EDGE, edge_views
+    from coverplan.shots.edge_views import EDGE, edge_views
     from coverplan.shots.reachability import scene_limits
     from coverplan.shots.surface import sample_surface
 
@@ -605,7 +605,8 @@ def test_photos_already_taken_stand_in_for_the_edge_views_they_repeat():
     other way from the same places, none when the photos taken are those views moved 1 m
     and turned 10 deg; the thesis's rule leaves them out unless asked, the sfm rule takes them."""
     from coverplan.planning.settings import PlanSettings
-    from coverplan.shots.candidates import Candidates, edge_views, required_edge_views
+    from coverplan.shots.candidates import Candidates
+    from coverplan.shots.edge_views import edge_views, required_edge_views
     from coverplan.shots.reachability import scene_limits
     from coverplan.shots.surface import sample_surface
 

@@ -14,16 +14,8 @@ from coverplan.flight.pathing import (
 )
 from coverplan.planning.setup import Setup, plan_lattice_spacing
 from coverplan.progress import Progress
-from coverplan.shots.candidates import (
-    Candidates,
-    along_normals,
-    edge_views,
-    facade_rings,
-    from_probes,
-    keep_safe,
-    required_edge_views,
-    under_overhangs,
-)
+from coverplan.shots.candidates import Candidates, along_normals, facade_rings, keep_safe, under_overhangs
+from coverplan.shots.edge_views import edge_views, required_edge_views
 from coverplan.shots.framing import (
     CLOSE_SHARE,
     frame_fill,
@@ -31,6 +23,7 @@ from coverplan.shots.framing import (
     view_fill,
 )
 from coverplan.shots.lanes import NEAR_LANE_SHARES, Lanes, courtyard_lanes, facade_lanes, roof_lanes, safe_lanes
+from coverplan.shots.probe_views import from_probes
 from coverplan.shots.reachability import (
     Reachability,
     reachability,

@@ -10,7 +10,7 @@ from coverplan.errors import PlanningError
 from coverplan.planning.problem import Problem
 from coverplan.planning.setup import Setup
 from coverplan.progress import Progress
-from coverplan.shots.candidates import required_edge_views
+from coverplan.shots.edge_views import required_edge_views
 from coverplan.shots.framing import (
     framed_view_matrix,
     view_fill,

@@ -99,7 +99,7 @@ class PlanSettings:
         docs/flights.md).
     edge_views : bool or None
         Take a photo from the bisector of the two faces every frame width along each edge
-        where the surface turns by 45 deg or more (``candidates.edge_views``), seeing both
+        where the surface turns by 45 deg or more (``edge_views.edge_views``), seeing both
         faces alike, so that SfM joins each face to the next; False: without them. None (the
         default): on under the ``"sfm"`` rule (lanes need them too: wrapped round a corner
         alone, they split in field draws), off under the thesis's.

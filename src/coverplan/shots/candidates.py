@@ -5,11 +5,11 @@ Five generators, all 3D:
   standoff (shapely) and walked along, cameras facing the wall at a few headings;
 - ``along_normals``: for a thinned set of samples, positions at the standoff along the
   normal and along directions tilted from it (roofs look down, overhang undersides up);
-- ``edge_views``: cameras on the bisector of the two faces at each edge where the surface
+- ``edge_views`` (edge_views.py): cameras on the bisector of the two faces at each edge where the surface
   turns (a wall's corner, a roof's eave or ridge), seeing both faces alike;
 - ``under_overhangs``: for down-facing samples, cameras below and beside them looking up as
   steeply as the gimbal and the frame allow (``along_normals`` puts those under the ground);
-- ``from_probes``: for samples the others leave short, the reachability probes that work.
+- ``from_probes`` (probe_views.py): for samples the others leave short, the reachability probes that work.
 Every candidate is then checked: above the minimum altitude, clear of every mesh by the
 security distance plus a margin, aimable by the gimbal.
 """
@@ -20,19 +20,13 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
-from scipy.spatial import cKDTree
 from shapely.geometry import MultiPolygon, Polygon
 from shapely.ops import unary_union
 
 from coverplan.geometry.orientation import heading_pitch, view_direction
-from coverplan.runs import run_offsets
 from coverplan.shots.reachability import (
-    OK,
     ViewLimits,
-    cone_directions,
-    probe_positions,
     tangent_frames,
-    test_probes,
 )
 from coverplan.shots.surface import OPPOSED_TERRACE
 
@@ -292,114 +286,6 @@ def along_normals(samples, limits: ViewLimits, camera, distance: float, tilt_deg
     return Candidates.looking(positions[ok], -rays[ok], limits, source=1)
 
 
-EDGE = 3  # Candidates.source of edge_views
-EDGE_TURN_DEG = 45.0  # the surface turns at least this much at an edge
-
-
-def edge_views(samples, limits: ViewLimits, camera, distance: float,
-               min_turn_deg: float = EDGE_TURN_DEG) -> Candidates:
-    """Cameras at ``distance`` from each edge where the surface turns, looking back along
-    the bisector of its two faces' normals.
-
-    At a corner the other generators look square at one face or the other (or 30 deg off it),
-    so a photo sees the face beyond the corner at 60 deg or more, where SfM rarely matches
-    it: under field conditions the faces of the square, the triangle and the flush target
-    came back as models of their own, joined only through such photos
-    (docs/reconstruction.md). A camera on the bisector sees both faces alike.
-
-    Parameters
-    ----------
-    samples : SurfaceSamples
-        The planner's samples; neighbours within 1.5 spacings whose normals turn by at least
-        ``min_turn_deg`` mark an edge.
-    limits : ViewLimits
-    camera : Camera
-    distance : float
-        Standoff from the edge, m.
-    min_turn_deg : float
-
-    Returns
-    -------
-    Candidates
-        One per edge point kept by ``thin`` (source ``EDGE``).
-    """
-    points, normals = samples.points, samples.normals
-    if len(points) < 2:
-        return Candidates.empty()
-    pairs = cKDTree(points).query_pairs(1.5 * samples.spacing, output_type="ndarray")
-    i, j = pairs[:, 0], pairs[:, 1]
-    bisector = normals[i] + normals[j]
-    length = np.linalg.norm(bisector, axis=1)
-    # Faces turning by 150 deg or more (a thin fin, a blade) have no bisector both see.
-    turns = (np.einsum("ij,ij->i", normals[i], normals[j]) <= np.cos(np.radians(min_turn_deg))) & (length > 0.5)
-    i, j = i[turns], j[turns]
-    ni, nj = normals[i], normals[j]
-    middle = 0.5 * (points[i] + points[j])
-    # The point of the edge (where the two faces' planes meet) nearest the pair's midpoint,
-    # which lies inside the corner: middle + a ni + b nj on both planes.
-    c = np.einsum("ij,ij->i", ni, nj)
-    u = -np.einsum("ij,ij->i", ni, middle - points[i])
-    v = -np.einsum("ij,ij->i", nj, middle - points[j])
-    det = 1.0 - c * c
-    middle = middle + ((u - c * v) / det)[:, None] * ni + ((v - c * u) / det)[:, None] * nj
-    bisector = bisector[turns] / length[turns, None]
-    picked = thin(middle, bisector, max(camera.footprint(distance)[1] * 0.35, samples.spacing))
-    middle, bisector = middle[picked], bisector[picked]
-    ok = limits.elevation_ok(bisector)
-    return Candidates.looking(middle[ok] + bisector[ok] * distance, -bisector[ok], limits, source=EDGE)
-
-
-EDGE_VIEW_SPACING = 1.0  # required edge views along an edge, in frame widths at the standoff
-EDGE_VIEW_MIN_SHARE = 0.5  # a required edge view sees at least this share of a median candidate's samples
-EDGE_VIEW_STAND_IN_DEG = 20.0  # a photo already taken this close in direction stands in for an edge view
-
-
-def required_edge_views(cands: Candidates, camera, distance: float, seen: np.ndarray,
-                        taken: Candidates | None = None) -> np.ndarray:
-    """Indices of the edge views (``source == EDGE``) every plan with edge views takes: one
-    per ``EDGE_VIEW_SPACING`` frame widths along each edge, so that each face is joined to
-    the face beyond its edge by a photo that sees both alike.
-
-    Views that see less than ``EDGE_VIEW_MIN_SHARE`` of what the median candidate sees are
-    not required: above a spire's tip or a chimney's corner the faces are too small for a
-    photo of them to match the others (the chapel's spire tip: 51 samples against a median
-    1,148, linked to no other photo).
-
-    Nor are views a photo already taken stands in for: one within half the spacing, looking
-    within ``EDGE_VIEW_STAND_IN_DEG`` of the same way (a re-flight of a gap does not fly the
-    edges the first flight photographed).
-
-    Parameters
-    ----------
-    cands : Candidates
-    camera : Camera
-    distance : float
-        The standoff, m.
-    seen : (len(cands),) int
-        Samples each candidate images.
-    taken : Candidates, optional
-        Photos already taken.
-
-    Returns
-    -------
-    (k,) int
-        Indices into ``cands``.
-    """
-    edge = np.flatnonzero((cands.source == EDGE) & (seen >= EDGE_VIEW_MIN_SHARE * np.median(seen)))
-    if len(edge) == 0:
-        return edge
-    spacing = EDGE_VIEW_SPACING * camera.footprint(distance)[0]
-    dirs = cands.view_dirs  # a property that converts every candidate's angles: once
-    picked = edge[thin(cands.positions[edge], -dirs[edge], spacing)]
-    if taken is not None and len(taken):
-        near = cKDTree(cands.positions[picked]).sparse_distance_matrix(
-            cKDTree(taken.positions), 0.5 * spacing, output_type="ndarray")
-        alike = np.einsum("ij,ij->i", dirs[picked[near["i"]]], taken.view_dirs[near["j"]]) \
-            >= np.cos(np.radians(EDGE_VIEW_STAND_IN_DEG))
-        picked = np.delete(picked, np.unique(near["i"][alike]))
-    return np.sort(picked)
-
-
 def under_overhangs(samples, limits: ViewLimits, camera, margin: float, n_azimuths: int = 8) -> Candidates:
     """Cameras that see down-facing samples at the smallest incidence the gimbal allows.
 
@@ -449,141 +335,6 @@ def under_overhangs(samples, limits: ViewLimits, camera, margin: float, n_azimut
     facing = np.einsum("nk,nadk->nad", nrm, rays) >= np.cos(np.radians(limits.max_incidence_deg))
     ok = facing & (ranges[:, None, :] >= nearest)
     return Candidates.looking(positions[ok], -rays[ok], limits, source=1)
-
-
-def from_probes(scene, samples, needy, limits: ViewLimits, per_sample: int = 8,
-                n_directions: int = 96, range_fractions=(0.1, 0.35, 0.6, 0.85, 0.97)) -> Candidates:
-    """Working reachability probes of the ``needy`` samples, aimed at their sample.
-
-    The cone reaches out to the incidence limit, as the evaluator's reachability does: these
-    are the samples only grazing views can reach.
-
-    Parameters
-    ----------
-    scene : Scene
-        The scene.
-    samples : SurfaceSamples
-        The samples.
-    needy : (k,) int
-        The samples that need views.
-    limits : ViewLimits
-        The viewpoint rules.
-    per_sample : int
-        The most cameras per sample.
-    n_directions : int
-        Probe directions.
-    range_fractions : sequence of float
-        Shares of d_opt probed along each direction.
-
-    Returns
-    -------
-    Candidates
-        The cameras.
-    """
-    needy = np.asarray(needy, dtype=np.int64)
-    if len(needy) == 0:
-        return Candidates.empty()
-    directions = cone_directions(limits.max_incidence_deg * 0.995, n_directions)
-    owner, pos, rays = probe_positions(samples.points, samples.normals, needy, limits, directions,
-                                       range_fractions)
-    status, _ = test_probes(scene, samples.points, samples.normals, owner, pos, rays, limits)
-    good = np.flatnonzero(status == OK)
-    # Keep a spread of directions per sample.
-    keep = good[spread_per_owner(owner[good], per_sample)]
-    if len(keep) == 0:
-        return Candidates.empty()
-    return Candidates.looking(pos[keep], -rays[keep], limits, source=2)
-
-
-def around_views(scene, samples, owner, cameras, limits: ViewLimits, tilts_deg=(2.5, 5.0), n_azimuths: int = 8,
-                 range_fractions=(0.5, 0.75, 0.95), per_sample: int = 10) -> Candidates:
-    """Working probes in a narrow cone around known views of samples, aimed at their sample.
-
-    ``owner[k]`` is the sample that the camera at ``cameras[k]`` images. Where the safe
-    viewpoints of a sample fill a cone a few degrees wide (a wall foot seen only between two
-    obstacles), the reachability probes' cone, 8 degrees between neighbours at 192
-    directions, rarely puts two of them inside; a second view 5 degrees off the first does.
-
-    Parameters
-    ----------
-    scene : Scene
-        The scene.
-    samples : SurfaceSamples
-        The samples.
-    owner : (k,) int
-        The sample each known camera images.
-    cameras : (k, 3) float
-        Known camera centres.
-    limits : ViewLimits
-        The viewpoint rules.
-    tilts_deg : sequence of float
-        Cone half-angles around each known view.
-    n_azimuths : int
-        Directions per cone.
-    range_fractions : sequence of float
-        Shares of d_opt probed.
-    per_sample : int
-        The most cameras per sample.
-
-    Returns
-    -------
-    Candidates
-        The cameras.
-    """
-    owner = np.asarray(owner, dtype=np.int64)
-    if len(owner) == 0:
-        return Candidates.empty()
-    base = cameras - samples.points[owner]
-    base /= np.linalg.norm(base, axis=1, keepdims=True)
-    t1, t2 = tangent_frames(base)
-    az = np.radians(np.arange(n_azimuths) * 360.0 / n_azimuths)
-    tilt = np.radians(np.asarray(tilts_deg, float))
-    a, t = (g.ravel() for g in np.meshgrid(az, tilt))
-    off = (np.sin(t)[None, :, None] * (np.cos(a)[None, :, None] * t1[:, None] + np.sin(a)[None, :, None] * t2[:, None])
-           + np.cos(t)[None, :, None] * base[:, None])  # (views, offsets, 3)
-    ranges = limits.security + (limits.d_opt - limits.security) * np.asarray(range_fractions, float)
-    rays = np.repeat(off[:, :, None], len(ranges), axis=2)
-    pos = samples.points[owner][:, None, None] + rays * ranges[None, None, :, None]
-    who = np.broadcast_to(owner[:, None, None], rays.shape[:3]).reshape(-1)
-    rays, pos = rays.reshape(-1, 3), pos.reshape(-1, 3)
-    facing = np.einsum("ij,ij->i", rays, samples.normals[who]) >= np.cos(np.radians(limits.max_incidence_deg * 0.995))
-    who, rays, pos = who[facing], rays[facing], pos[facing]
-    status, _ = test_probes(scene, samples.points, samples.normals, who, pos, rays, limits)
-    good = np.flatnonzero(status == OK)
-    good = good[spread_per_owner(who[good], per_sample)]
-    return Candidates.looking(pos[good], -rays[good], limits, source=2)
-
-
-def spread_per_owner(owner: np.ndarray, k: int) -> np.ndarray:
-    """Indices keeping at most ``k`` entries per owner, evenly spread over each owner's
-    entries (in their order): per owner ``np.linspace(0, n - 1, min(k, n)).astype(int)``,
-    owners ascending.
-
-    Parameters
-    ----------
-    owner : (n,) int
-        The owner of each entry.
-    k : int
-        The most entries per owner.
-
-    Returns
-    -------
-    (m,) int
-        Indices into ``owner``.
-    """
-    order = np.argsort(owner, kind="stable")
-    sorted_owner = owner[order]
-    first = np.flatnonzero(np.r_[True, sorted_owner[1:] != sorted_owner[:-1]]) if len(owner) else np.zeros(0, int)
-    n = np.diff(np.r_[first, len(owner)])
-    take = np.minimum(n, k)
-    group = np.repeat(np.arange(len(first)), take)
-    i = run_offsets(take)
-    # linspace's arithmetic exactly: i * ((n - 1) / (take - 1)), the last one n - 1 (one: the first).
-    div = np.maximum(take[group] - 1, 1)
-    at = (i * ((n[group] - 1) / div)).astype(np.int64)
-    last = (i == take[group] - 1) & (take[group] > 1)
-    at[last] = n[group][last] - 1
-    return order[first[group] + at]
 
 
 def keep_safe(scene, candidates: Candidates, limits: ViewLimits, margin: float) -> Candidates:

@@ -18,14 +18,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import cKDTree
 
-from coverplan.shots.candidates import (
-    Candidates,
-    along_normals,
-    around_views,
-    from_probes,
-    keep_safe,
-    thin,
-)
+from coverplan.shots.candidates import Candidates, along_normals, keep_safe, thin
+from coverplan.shots.probe_views import around_views, from_probes
 from coverplan.shots.reachability import ViewLimits, reachability
 from coverplan.shots.sharpness import add_sharp_views, incidence_deg
 from coverplan.shots.surface import (
