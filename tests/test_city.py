@@ -11,7 +11,7 @@ import pytest
 from coverplan import InputFileError, ParameterError, evaluate, get_camera, load_scene, plan
 from coverplan.cli import main
 from coverplan.io.city import parse_crs, triangulate_rings
-from coverplan.shots.repair import planner_check_samples
+from coverplan.shots.check_samples import planner_check_samples
 from tests.helpers import MESHES
 
 CITY = MESHES / "citygml"

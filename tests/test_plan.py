@@ -113,7 +113,7 @@ def test_planner_claims_recheck(planned):
     """On the planner's own check samples, the evaluator covers everything the planner does not
     list, finds unreachable what it lists as such, and the planner's figure is not above its
     (the planner counts a view only with 1 % to spare)."""
-    from coverplan.shots.repair import planner_check_samples
+    from coverplan.shots.check_samples import planner_check_samples
     for name, (scene, route, _ev) in planned.items():
         ev = evaluate(route, scene, samples=planner_check_samples(scene, route))
         listed = {tuple(np.round(u["position"], 6)) for u in route.uncovered}

@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 from shapely.geometry import Polygon
 
 from coverplan import PRESETS, ParameterError, PlanningError, evaluate, plan
-from coverplan.shots.repair import planner_check_samples
+from coverplan.shots.check_samples import planner_check_samples
 from coverplan.world.scene import scene_from_meshes
 from tests.helpers import box
 from tests.independent import polyline_min_distance
@@ -104,7 +104,7 @@ def check_random_scene(target_spec, obstacle_boxes, opts, results: dict, short: 
     # reasons), and only one in a hundred (checked below). The one seen: three obstacles round
     # a box, Mavic 3E, 3.86 m security, 99.33 % (test_plan's walls seen only between
     # obstacles). A wall facing an obstacle nearer than the security distance gave 99.43 %
-    # in other draws. Before the check's ball (repair.CHECK_BALL) a 3 m box claimed 100 %
+    # in other draws. Before the check's ball (cover.CHECK_BALL) a 3 m box claimed 100 %
     # against the evaluator's 99.70 %.
     if m["coverage_pct"] < 99.5:
         assert route.metrics["planned_coverage_pct"] < 99.5, (m["coverage_pct"], route.metrics["planned_coverage_pct"])

@@ -8,7 +8,7 @@ import trimesh
 from shapely.geometry import box as rect
 
 from coverplan import evaluate, load_scene, plan
-from coverplan.shots.repair import planner_check_samples
+from coverplan.shots.check_samples import planner_check_samples
 from coverplan.voxel import (
     OBSTACLE,
     TARGET,

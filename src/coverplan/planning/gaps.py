@@ -12,6 +12,7 @@ from coverplan.planning.selecting import Selection, lean
 from coverplan.planning.setup import Setup
 from coverplan.progress import Progress
 from coverplan.shots.bracing import brace_links
+from coverplan.shots.cover import CoverProblem
 from coverplan.shots.framing import (
     framed_view_matrix,
     view_fill,
@@ -19,12 +20,7 @@ from coverplan.shots.framing import (
 from coverplan.shots.reconstructability import MatchRule, candidate_links, connect_shots, extend_links, shot_links
 from coverplan.shots.redundancy import TRIM_SPARE_VIEWS, CheckViews, SharpViews, drop_redundant
 from coverplan.shots.relink import check_views, relink_on_check
-from coverplan.shots.repair import (
-    MAX_ROUNDS,
-    TARGET_PCT,
-    CoverProblem,
-    GapCloser,
-)
+from coverplan.shots.repair import MAX_ROUNDS, TARGET_PCT, GapCloser
 from coverplan.shots.selection import select_views
 from coverplan.shots.sharpness import SHARP_INCIDENCE_DEG, best_incidence, incidence_deg, sharp_view_matrix
 from coverplan.shots.visibility import view_rays

@@ -15,6 +15,8 @@ from coverplan.flight.pathing import (
 from coverplan.planning.setup import Setup, plan_lattice_spacing
 from coverplan.progress import Progress
 from coverplan.shots.candidates import Candidates, along_normals, facade_rings, keep_safe, under_overhangs
+from coverplan.shots.check_samples import check_samples, planner_check_spacing
+from coverplan.shots.cover import CoverProblem
 from coverplan.shots.edge_views import edge_views, required_edge_views
 from coverplan.shots.framing import (
     CLOSE_SHARE,
@@ -29,11 +31,6 @@ from coverplan.shots.reachability import (
     reachability,
 )
 from coverplan.shots.reconstructability import candidate_links
-from coverplan.shots.repair import (
-    CoverProblem,
-    check_samples,
-    planner_check_spacing,
-)
 from coverplan.shots.sharpness import incidence_deg
 from coverplan.shots.surface import SurfaceSamples, sample_surface
 from coverplan.shots.visibility import has_pair_between, view_rays
