@@ -12,7 +12,6 @@ more can be gained, or ``MAX_ROUNDS`` are done. What is left is reported with it
 
 from __future__ import annotations
 
-
 import numpy as np
 from scipy.spatial import cKDTree
 
