@@ -17,10 +17,11 @@ from hypothesis import strategies as st
 
 from coverplan import evaluate, load_scene, plan
 from coverplan.cli import main
-from coverplan.errors import ParameterError
 from coverplan.equipment.drones import get_drone
 from coverplan.equipment.flighttime import FlightModel
-from coverplan.flight.passing import PassRules, flown_path, pass_plan, turn_angles
+from coverplan.errors import ParameterError
+from coverplan.flight.corners import flown_path, turn_angles
+from coverplan.flight.passing import PassRules, pass_plan
 from coverplan.flight.route import Route
 from tests.helpers import MESHES, mavsdk_upload
 from tests.independent import polyline_min_distance

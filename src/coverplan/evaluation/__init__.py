@@ -14,7 +14,7 @@ import numpy as np
 from coverplan.errors import ParameterError
 from coverplan.evaluation.ground import ground_clearance, heights_above_ground
 from coverplan.evaluation.table import format_metrics
-from coverplan.flight.passing import flown_path
+from coverplan.flight.corners import flown_path
 from coverplan.flight.route import Route
 from coverplan.shots.framing import FRAMED_VIEWS_JUDGED, frame_fill, framed_view_matrix, view_fill
 from coverplan.shots.reachability import ViewLimits, reachability, scene_limits

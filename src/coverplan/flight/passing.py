@@ -34,7 +34,9 @@ import numpy as np
 
 from coverplan.equipment.drones import SURVEY_SHUTTER_S
 from coverplan.errors import ParameterError
+from coverplan.flight.corners import _unit, corner_offsets, corner_rows, flown_path, turn_angles
 from coverplan.flight.pathing import polyline_checks
+from coverplan.flight.speeds import _flown_legs, leg_top_speeds, reachable_speeds
 from coverplan.geometry.orientation import camera_axes, heading_change_deg
 
 
@@ -114,143 +116,6 @@ class PassPlan:
         return self.speed > 0
 
 
-def _unit(v) -> tuple[np.ndarray, np.ndarray]:
-    length = np.linalg.norm(v, axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        u = np.where(length[:, None] > 1e-9, v / length[:, None], 0.0)
-    return u, length
-
-
-def turn_angles(positions) -> np.ndarray:
-    """(n,) degrees the path turns at each waypoint (0 at the ends and where a leg is empty).
-
-    Parameters
-    ----------
-    positions : (n, 3) float
-        Waypoints.
-
-    Returns
-    -------
-    (n,) float
-        Degrees.
-    """
-    p = np.asarray(positions, dtype=float).reshape(-1, 3)
-    theta = np.zeros(len(p))
-    if len(p) < 3:
-        return theta
-    u, _ = _unit(np.diff(p, axis=0))
-    cos = np.clip(np.einsum("ij,ij->i", u[:-1], u[1:]), -1.0, 1.0)
-    empty = (np.linalg.norm(u[:-1], axis=1) == 0) | (np.linalg.norm(u[1:], axis=1) == 0)
-    theta[1:-1] = np.where(empty, 180.0, np.degrees(np.arccos(cos)))
-    return theta
-
-
-def leg_top_speeds(model, positions, heading_deg, pitch_deg, shot, photo_interval_s: float) -> np.ndarray:
-    """(n - 1,) the highest speed on each leg: within the cruise speed horizontally and the
-    climb / descent rate vertically, no faster than the heading and gimbal turn over it, and
-    between two photos at least ``photo_interval_s`` from one to the next.
-
-    Parameters
-    ----------
-    model : FlightModel
-        The time model.
-    positions : (n, 3) float
-        Waypoints.
-    heading_deg, pitch_deg : (n,) float
-        Orientations.
-    shot : (n,) bool
-        Which take a photo.
-    photo_interval_s : float
-        The shortest time between photos.
-
-    Returns
-    -------
-    (n - 1,) float
-        m/s.
-    """
-    p = np.asarray(positions, dtype=float).reshape(-1, 3)
-    length = np.linalg.norm(np.diff(p, axis=0), axis=1)
-    top = model.top_speeds(p[:-1], p[1:])
-    turn = model.rotation_seconds(heading_deg, pitch_deg)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        top = np.minimum(top, np.where(turn > 0, length / turn, np.inf))
-    rows = np.flatnonzero(shot)
-    if len(rows) > 1:
-        arc = np.concatenate([[0.0], np.cumsum(length)])
-        stretch = np.searchsorted(rows, np.arange(len(length)), side="right") - 1
-        inside = (stretch >= 0) & (stretch < len(rows) - 1)
-        between = np.zeros(len(length))
-        s = stretch[inside]
-        between[inside] = arc[rows[s + 1]] - arc[rows[s]]
-        top = np.where(inside, np.minimum(top, between / photo_interval_s), top)
-    return top
-
-
-def reachable_speeds(bound, length, acceleration: float) -> np.ndarray:
-    """(n,) the highest speeds within ``bound`` (n,) that accelerate and brake within
-    ``acceleration`` over the legs ``length`` (n - 1,): v_k^2 <= b_j^2 + 2 a |s_k - s_j| for all j,
-    as two running minima.
-
-    Parameters
-    ----------
-    bound : (n,) float
-        Speed bounds at the waypoints, m/s.
-    length : (n - 1,) float
-        Leg lengths, metres.
-    acceleration : float
-        m/s².
-
-    Returns
-    -------
-    (n,) float
-        m/s.
-    """
-    b2 = np.asarray(bound, dtype=float) ** 2
-    s = np.concatenate([[0.0], np.cumsum(length)])
-    two_a = 2.0 * acceleration
-    forward = two_a * s + np.minimum.accumulate(b2 - two_a * s)
-    backward = -two_a * s + np.minimum.accumulate((b2 + two_a * s)[::-1])[::-1]
-    return np.sqrt(np.clip(np.minimum(forward, backward), 0.0, None))
-
-
-def trapezoid_seconds(length, entry, exit_, top, acceleration: float) -> np.ndarray:
-    """(m,) time over legs of ``length`` from speed ``entry`` to ``exit_`` with at most ``top``,
-    speeding up and braking at ``acceleration`` (the end speeds must be reachable).
-
-    Parameters
-    ----------
-    length : (m,) float
-        Metres.
-    entry, exit_ : (m,) float
-        m/s.
-    top : (m,) float
-        m/s.
-    acceleration : float
-        m/s².
-
-    Returns
-    -------
-    (m,) float
-        Seconds.
-    """
-    L, u, w = (np.asarray(x, dtype=float) for x in (length, entry, exit_))
-    V = np.maximum(np.asarray(top, dtype=float), np.maximum(u, w))
-    a = acceleration
-    ramps = (2.0 * V ** 2 - u ** 2 - w ** 2) / (2.0 * a)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        cruise = (V - u) / a + (V - w) / a + (L - ramps) / V
-        peak = np.sqrt(np.clip(a * L + 0.5 * (u ** 2 + w ** 2), 0.0, None))
-        short = (2.0 * peak - u - w) / a
-    return np.where(L <= 0, 0.0, np.where(ramps <= L, cruise, short))
-
-
-def _flown_legs(model, length, speed, top, heading_deg, pitch_deg) -> np.ndarray:
-    """(n - 1,) each leg's time between its end speeds ``speed`` (n,), no faster than ``top``
-    and no shorter than its heading and gimbal turns."""
-    legs = trapezoid_seconds(length, speed[:-1], speed[1:], top, model.acceleration)
-    return np.maximum(legs, model.rotation_seconds(heading_deg, pitch_deg))
-
-
 def pass_plan(model, positions, shot, heading_deg, pitch_deg, nearest_m, *, pixel_angle: float,
               shutter_s: float, photo_interval_s: float, rules: PassRules = PassRules(),
               stops=None) -> PassPlan:
@@ -326,32 +191,6 @@ def pass_plan(model, positions, shot, heading_deg, pitch_deg, nearest_m, *, pixe
     return PassPlan(speed, damping, corner_offsets(p, damping), legs, np.where(can, 0.0, hover))
 
 
-def corner_offsets(positions, damping_m) -> np.ndarray:
-    """(n, 3) where the drone passes each waypoint minus the waypoint: ``d tan(theta / 4)`` into
-    the turn for a turn starting ``damping_m`` (n,) before it; 0 where the damping is 0.
-
-    Parameters
-    ----------
-    positions : (n, 3) float
-        Waypoints.
-    damping_m : (n,) float
-        Metres.
-
-    Returns
-    -------
-    (n, 3) float
-        Metres.
-    """
-    p = np.asarray(positions, dtype=float).reshape(-1, 3)
-    d = np.asarray(damping_m, dtype=float).reshape(-1)
-    if len(p) < 3:
-        return np.zeros_like(p)
-    u, _ = _unit(np.diff(p, axis=0))
-    inward, _ = _unit(np.concatenate([np.zeros((1, 3)), u[1:] - u[:-1], np.zeros((1, 3))]))
-    quarter = np.tan(np.radians(turn_angles(p)) / 4.0)
-    return inward * np.where(d > 0, d * quarter, 0.0)[:, None]
-
-
 def nearest_in_frame(rays, positions, heading_deg, pitch_deg, camera, max_range: float, grid: int = 7) -> np.ndarray:
     """(n,) the nearest surface each photo sees: the shortest of ``grid`` x ``grid`` rays over its
     frame (``max_range`` where none hits).
@@ -389,54 +228,6 @@ def nearest_in_frame(rays, positions, heading_deg, pitch_deg, camera, max_range:
     # a ray's length is not the range along the view axis; the axis depth is what blur scales with
     depth = dist.reshape(len(p), -1) * np.einsum("nkj,nj->nk", dirs, forward)
     return np.minimum(np.where(np.isfinite(depth), depth, max_range).min(axis=1), max_range)
-
-
-def flown_path(positions, damping_m) -> np.ndarray:
-    """(m, 3) the polyline the drone flies: each waypoint flown through (``damping_m`` > 0)
-    replaced by where its turn starts, where it passes the waypoint and where the turn ends
-    (the arc lies within that corner of the triangle), the others kept.
-
-    Parameters
-    ----------
-    positions : (n, 3) float
-        Waypoints.
-    damping_m : (n,) float
-        Metres; 0 at stops.
-
-    Returns
-    -------
-    (m, 3) float
-        The flown polyline.
-    """
-    p = np.asarray(positions, dtype=float).reshape(-1, 3)
-    d = np.asarray(damping_m, dtype=float).reshape(-1)
-    if len(p) < 3:
-        return p.copy()
-    u, _ = _unit(np.diff(p, axis=0))
-    pieces = np.stack([p - d[:, None] * np.concatenate([np.zeros((1, 3)), u]),
-                       p + corner_offsets(p, d),
-                       p + d[:, None] * np.concatenate([u, np.zeros((1, 3))])], axis=1)
-    keep = np.ones((len(p), 3), dtype=bool)
-    keep[:, [0, 2]] = (d > 0)[:, None]
-    return pieces[keep]
-
-
-def corner_rows(damping_m) -> np.ndarray:
-    """(m,) the waypoint each point of :func:`flown_path` belongs to.
-
-    Parameters
-    ----------
-    damping_m : (n,) float
-        Metres, as given to ``flown_path``.
-
-    Returns
-    -------
-    (m,) int
-        Waypoint indices.
-    """
-    d = np.asarray(damping_m, dtype=float).reshape(-1)
-    counts = np.where(d > 0, 3, 1) if len(d) >= 3 else np.ones(len(d), dtype=int)
-    return np.repeat(np.arange(len(d)), counts)
 
 
 def camera_timing(camera, drone=None, model=None) -> dict:
@@ -606,83 +397,3 @@ def fly_through(route, scene, limits, model, *, pixel_angle: float, shutter_s: f
             "max_photo_offset_m": float(offsets[route.shot].max()) if route.shot.any() else 0.0,
             "fastest_photo_mps": float(plan.speed[route.shot].max()) if route.shot.any() else 0.0,
             "rules": rules.to_dict()}
-
-
-def leg_speeds(route, cruise_speed: float) -> np.ndarray:
-    """(n,) the speed each waypoint's exported leg to the next is flown at: the cruise speed,
-    slowed to the pass speed of either end that is flown through (DJI's ``waypointSpeed``, a
-    ``DO_CHANGE_SPEED`` before a MAVLink waypoint). The last waypoint keeps the cruise speed.
-
-    Parameters
-    ----------
-    route : Route
-        The route.
-    cruise_speed : float
-        m/s.
-
-    Returns
-    -------
-    (n,) float
-        m/s.
-    """
-    n = len(route.positions)
-    out = np.full(n, float(cruise_speed))
-    if route.pass_speed is None or n < 2:
-        return out
-    v = np.where(route.pass_speed > 0, route.pass_speed, np.inf)
-    out[:-1] = np.minimum(out[:-1], np.minimum(v[:-1], v[1:]))
-    return out
-
-
-def route_leg_seconds(route, model, photo_interval_s: float) -> np.ndarray:
-    """(n - 1,) each leg's time as the route is flown: through its recorded pass speeds (from
-    rest to rest where it stops), no faster than :func:`leg_top_speeds`; 0 between battery
-    flights.
-
-    Parameters
-    ----------
-    route : Route
-        The route.
-    model : FlightModel
-        The time model.
-    photo_interval_s : float
-        The shortest time between photos.
-
-    Returns
-    -------
-    (n - 1,) float
-        Seconds.
-    """
-    n = len(route.positions)
-    legs = np.zeros(max(n - 1, 0))
-    speed = route.pass_speed if route.pass_speed is not None else np.zeros(n)
-    for rows in route.flight_rows():
-        if len(rows) < 2:
-            continue
-        p = route.positions[rows]
-        top = leg_top_speeds(model, p, route.heading_deg[rows], route.pitch_deg[rows], route.shot[rows],
-                             photo_interval_s)
-        legs[rows[:-1]] = _flown_legs(model, np.linalg.norm(np.diff(p, axis=0), axis=1), speed[rows], top,
-                                      route.heading_deg[rows], route.pitch_deg[rows])
-    return legs
-
-
-def travel_directions(positions) -> np.ndarray:
-    """(n, 3) unit direction of travel at each waypoint: along the bisector of its two legs.
-
-    Parameters
-    ----------
-    positions : (n, 3) float
-        Waypoints.
-
-    Returns
-    -------
-    (n, 3) float
-        Unit vectors; 0 where both legs are empty.
-    """
-    p = np.asarray(positions, dtype=float).reshape(-1, 3)
-    if len(p) < 2:
-        return np.zeros_like(p)
-    u, _ = _unit(np.diff(p, axis=0))
-    t, _ = _unit(np.concatenate([u[:1], u]) + np.concatenate([u, u[-1:]]))
-    return t

@@ -12,7 +12,7 @@ import numpy as np
 from coverplan.equipment.camera import Camera
 from coverplan.errors import ParameterError, RouteFormatError
 from coverplan.files import absolute_to, read_json, relative_to, write_atomic
-from coverplan.flight.passing import corner_offsets, turn_angles
+from coverplan.flight.corners import corner_offsets, turn_angles
 from coverplan.geometry.orientation import (
     angle_between_deg,
     heading_pitch,
@@ -168,7 +168,7 @@ class Route:
 
     def flown_positions(self) -> np.ndarray:
         """(n, 3) where the drone is as it passes each waypoint: the waypoint itself at a stop,
-        off it on the inside of the turn where it flies through (passing.py).
+        off it on the inside of the turn where it flies through (corners.py).
 
         Returns
         -------

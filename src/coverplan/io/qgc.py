@@ -29,7 +29,8 @@ import numpy as np
 from coverplan.errors import InputFileError
 from coverplan.files import read_json, write_atomic
 from coverplan.flight.missions import AMSL, TAKEOFF, MissionBuilder, mission_number
-from coverplan.flight.passing import PassRules, leg_speeds
+from coverplan.flight.passing import PassRules
+from coverplan.flight.speeds import leg_speeds
 from coverplan.io.geoflight import geo_flight, geo_zones
 from coverplan.io.qgc_complex import expand_complex_item
 from coverplan.io.registry import register_mission_reader, register_writer

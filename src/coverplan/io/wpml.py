@@ -34,7 +34,7 @@ from coverplan.equipment.drones import get_drone
 from coverplan.errors import InputFileError, ParameterError
 from coverplan.files import write_atomic_bytes
 from coverplan.flight.missions import TAKEOFF, MissionBuilder, mission_number
-from coverplan.flight.passing import leg_speeds
+from coverplan.flight.speeds import leg_speeds
 from coverplan.geometry.geo import ellipsoidal_and_egm96
 from coverplan.geometry.orientation import heading_change_deg
 from coverplan.io.geoflight import geo_flight

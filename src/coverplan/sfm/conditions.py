@@ -25,7 +25,8 @@ from coverplan.equipment.drones import (
 )
 from coverplan.equipment.flighttime import FlightModel
 from coverplan.errors import ParameterError
-from coverplan.flight.passing import route_leg_seconds, travel_directions
+from coverplan.flight.corners import travel_directions
+from coverplan.flight.speeds import route_leg_seconds
 from coverplan.sfm.field_render import check_metering
 from coverplan.sfm.render import _SUN as FIXED_SUN
 
