@@ -24,7 +24,7 @@ from coverplan.flight.route import Route
 from coverplan.io.qgc_complex import flight_polygon, layer_stops
 from coverplan.planning.settings import safety_margin
 from coverplan.shots.candidates import standoff
-from coverplan.shots.reachability import ViewLimits
+from coverplan.shots.limits import ViewLimits
 
 
 def footprint(scene):

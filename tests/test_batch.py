@@ -19,7 +19,9 @@ pytest.importorskip("distributed")
 import cloudpickle  # noqa: E402  (installed with distributed)
 
 from coverplan import get_camera, load_scene, plan  # noqa: E402
-from coverplan.batch.run import BatchSettings, completed_row, folder_names, plan_building, run_batch, select_buildings  # noqa: E402
+from coverplan.batch.outputs import completed_row
+from coverplan.batch.run import BatchSettings, plan_building, run_batch
+from coverplan.batch.selecting import folder_names, select_buildings
 from coverplan.errors import ParameterError  # noqa: E402
 from coverplan.flight.route import Route  # noqa: E402
 from coverplan.io import read_city_model  # noqa: E402

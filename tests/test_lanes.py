@@ -10,7 +10,7 @@ from coverplan.cli import main
 from coverplan.flight.lanes import route_step_shape, smooth_ceiling, step_shape
 from coverplan.flight.tour import DEFAULT_REAIM_STEPS, DEFAULT_REVERSAL_STEPS
 from coverplan.shots.candidates import facade_rings
-from coverplan.shots.reachability import scene_limits
+from coverplan.shots.limits import scene_limits
 from coverplan.world.scene import scene_from_meshes
 from tests.helpers import MESHES, box
 from tests.independent import polyline_min_distance

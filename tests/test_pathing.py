@@ -9,8 +9,9 @@ import trimesh
 from scipy.sparse.csgraph import dijkstra
 
 from coverplan import load_scene
-from coverplan.flight.pathing import build_flight_graph, build_lattice, lattice_box, shot_distances
-from coverplan.shots.reachability import scene_limits
+from coverplan.flight.lattice import build_lattice, lattice_box
+from coverplan.flight.pathing import build_flight_graph, shot_distances
+from coverplan.shots.limits import scene_limits
 from coverplan.world.scene import scene_from_meshes
 from tests.helpers import MESHES, box
 

@@ -8,14 +8,9 @@ import scipy.sparse as sp
 
 from coverplan import evaluate, get_camera, plan
 from coverplan.shots.bracing import bracing_gain
-from coverplan.shots.reconstructability import (
-    MatchRule,
-    candidate_links,
-    connect_shots,
-    cut_shots,
-    graph_summary,
-    shot_links,
-)
+from coverplan.shots.connecting import connect_shots
+from coverplan.shots.link_graph import cut_shots, graph_summary
+from coverplan.shots.reconstructability import MatchRule, candidate_links, shot_links
 from coverplan.shots.sharpness import add_sharp_views, incidence_deg, sharp_targets
 from coverplan.shots.visibility import has_pair_between, widest_pair_angle
 from coverplan.world.scene import scene_from_meshes
@@ -527,7 +522,7 @@ def test_edge_views_look_along_the_bisector_of_every_turn():
     nearest point worked out here from the box's bounds), looks straight at that point, and
     sees both faces there at 45 deg; the corners and the eaves all get views, the flat faces none."""
     from coverplan.shots.edge_views import EDGE, edge_views
-    from coverplan.shots.reachability import scene_limits
+    from coverplan.shots.limits import scene_limits
     from coverplan.shots.surface import sample_surface
 
     lo, hi = np.array([0.0, 0.0, 0.0]), np.array([20.0, 10.0, 8.0])
@@ -607,7 +602,7 @@ def test_photos_already_taken_stand_in_for_the_edge_views_they_repeat():
     from coverplan.planning.settings import PlanSettings
     from coverplan.shots.candidates import Candidates
     from coverplan.shots.edge_views import edge_views, required_edge_views
-    from coverplan.shots.reachability import scene_limits
+    from coverplan.shots.limits import scene_limits
     from coverplan.shots.surface import sample_surface
 
     scene = scene_from_meshes([box(0.0, 0.0, 0.0, 20.0, 10.0, 8.0)], [])

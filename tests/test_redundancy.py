@@ -93,7 +93,7 @@ def test_spare_views_keep_a_view_more_than_the_rule():
 
 
 def test_random_braced_drops_keep_the_cut_shots_as_they_were():
-    from coverplan.shots.reconstructability import cut_shots
+    from coverplan.shots.link_graph import cut_shots
     rng = np.random.default_rng(3)
     dropped_any = 0
     for _ in range(40):

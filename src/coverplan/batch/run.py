@@ -16,8 +16,6 @@ import hashlib
 import json
 import logging
 import os
-import re
-import shutil
 import tempfile
 import time
 from dataclasses import asdict, dataclass, field, is_dataclass
@@ -25,16 +23,17 @@ from pathlib import Path
 from typing import Callable
 
 from coverplan import __version__
+from coverplan.batch.outputs import completed_row, write_building
+from coverplan.batch.selecting import folder_names, select_buildings
 from coverplan.batch.summary import write_summary
 from coverplan.equipment.camera import Camera
-from coverplan.errors import CoverplanError, InputFileError, ParameterError
+from coverplan.errors import CoverplanError, ParameterError
 from coverplan.io import GEOGRAPHIC_FORMATS, read_city_model
 from coverplan.io.city import CityModel, CityObject, Neighbourhood
 from coverplan.io.load import load_scene
 from coverplan.job import run_job
 from coverplan.world.merge import merge_into_target
 
-RESULT = "result.json"  # written last into a building's folder: its presence means complete
 ALLOWED_FAILURES = 1  # a task that kills two workers is not retried a third time
 
 
@@ -132,121 +131,6 @@ class BuildingJob:
 
 # -- choosing buildings -----------------------------------------------------------------------
 
-def parse_where(items: list[str] | None) -> list[tuple[str, str]]:
-    """ATTR=VALUE pairs (a ParameterError for anything else).
-
-    Parameters
-    ----------
-    items : list of str or None
-        ``ATTR=VALUE`` strings as given on the command line.
-
-    Returns
-    -------
-    list of (str, str)
-        The attribute and value of each item.
-
-    Raises
-    ------
-    ParameterError
-        An item without ``=`` or with an empty attribute.
-    """
-    pairs = []
-    for item in items or []:
-        attr, sep, value = item.partition("=")
-        if not sep or not attr.strip():
-            raise ParameterError(f"--where takes ATTR=VALUE, got {item!r}")
-        pairs.append((attr.strip(), value.strip()))
-    return pairs
-
-
-def _matches(value, wanted: str) -> bool:
-    if isinstance(value, list):
-        return any(_matches(v, wanted) for v in value)
-    if str(value) == wanted:
-        return True
-    try:
-        return float(value) == float(wanted)
-    except (TypeError, ValueError):
-        return False
-
-
-def select_buildings(model: CityModel, ids: list[str] | None = None, everything: bool = False,
-                     bbox: list[float] | None = None, where: list[tuple[str, str]] | None = None) -> list[CityObject]:
-    """The buildings a batch plans: by id, all, those centred in ``bbox`` (file coordinates,
-    xmin ymin xmax ymax) and/or whose attributes equal every ``where`` value.
-
-    Parameters
-    ----------
-    model : CityModel
-        The city model read.
-    ids : list of str, optional
-        Building ids to plan.
-    everything : bool
-        Plan every building.
-    bbox : list of float, optional
-        ``xmin ymin xmax ymax`` in the file's coordinates.
-    where : list of (str, str), optional
-        Attribute values every chosen building has.
-
-    Returns
-    -------
-    list of CityObject
-        The chosen buildings, in the file's order.
-    """
-    buildings = model.buildings
-    if not buildings:
-        raise InputFileError(model.path, "holds no building with 3D geometry (LoD 1 or higher)")
-    if ids:
-        chosen, seen = [], set()
-        for building in ids:
-            obj = model.find(building)
-            if obj.id not in seen:
-                seen.add(obj.id)
-                chosen.append(obj)
-        return chosen
-    if not (everything or bbox or where):
-        raise ParameterError("choose the buildings: --buildings ID ..., --all, --bbox XMIN YMIN XMAX YMAX "
-                             "or --where ATTR=VALUE")
-    chosen = buildings
-    if bbox is not None:
-        xmin, ymin, xmax, ymax = (float(v) for v in bbox)
-        if not (xmin < xmax and ymin < ymax):
-            raise ParameterError(f"--bbox needs XMIN < XMAX and YMIN < YMAX, got {' '.join(f'{v:g}' for v in bbox)}")
-        centre = {id(o): (box[:2] + box[2:]) / 2 for o, box in zip(model.with_geometry, model.xy_bounds(None))}
-        chosen = [o for o in chosen if xmin <= centre[id(o)][0] <= xmax and ymin <= centre[id(o)][1] <= ymax]
-    for attr, value in where or []:
-        chosen = [o for o in chosen if attr in o.attributes and _matches(o.attributes[attr], value)]
-    if not chosen:
-        what = " and ".join(filter(None, [bbox is not None and "--bbox", where and "--where"]))
-        known = sorted({k for o in buildings for k in o.attributes})
-        raise ParameterError(f"no building of {model.path.name} matches {what}"
-                             + (f" (attributes: {', '.join(known[:12])})" if where else ""))
-    return chosen
-
-
-def folder_names(objects: list[CityObject]) -> list[str]:
-    """A file-system-safe, unique folder name per building id.
-
-    Parameters
-    ----------
-    objects : list of CityObject
-        The chosen buildings.
-
-    Returns
-    -------
-    list of str
-        One folder name per building, in the same order.
-    """
-    names, used = [], set()
-    for obj in objects:
-        base = re.sub(r"[^A-Za-z0-9._-]+", "_", obj.id).strip("._") or "building"
-        name, k = base[:120], 2
-        while name.lower() in used:
-            name, k = f"{base[:116]}-{k}", k + 1
-        used.add(name.lower())
-        names.append(name)
-    return names
-
 
 # -- one building, on a worker ----------------------------------------------------------------
 
@@ -329,93 +213,6 @@ def _worker_memory_budget() -> float | None:
 
 
 # -- outputs ----------------------------------------------------------------------------------
-
-def write_building(out_dir: Path, row: dict, files: dict[str, bytes]) -> Path:
-    """Put a building's files in OUT/buildings/FOLDER atomically: a temporary folder with
-    ``result.json`` written last, renamed into place.
-
-    Parameters
-    ----------
-    out_dir : Path
-        The batch's output folder.
-    row : dict
-        The building's summary row (its ``folder`` names the destination).
-    files : dict of str to bytes
-        The building's output files.
-
-    Returns
-    -------
-    Path
-        The building's folder.
-    """
-    parent = out_dir / "buildings"
-    parent.mkdir(parents=True, exist_ok=True)
-    final = parent / row["folder"]
-    tmp = Path(tempfile.mkdtemp(prefix=f".{row['folder']}.", suffix=".tmp", dir=parent))
-    try:
-        sizes = {}
-        for name, data in files.items():
-            with open(tmp / name, "wb") as handle:
-                handle.write(data)
-                handle.flush()
-                os.fsync(handle.fileno())
-            sizes[name] = len(data)
-        record = dict(row, files=sizes)
-        with open(tmp / RESULT, "w", encoding="utf-8") as handle:
-            json.dump(record, handle, indent=1, default=float)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.chmod(tmp, 0o755)
-        if final.exists():  # an older or failed attempt: replaced whole, never mixed with the new one
-            old = final.with_name(f".{final.name}.{os.getpid()}.old")
-            os.replace(final, old)
-            os.replace(tmp, final)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.replace(tmp, final)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    return final
-
-
-def completed_row(out_dir: Path, folder: str, key: str) -> dict | None:
-    """The recorded row of a building whose folder is complete and valid for ``key``, else None.
-
-    Parameters
-    ----------
-    out_dir : Path
-        The batch's output folder.
-    folder : str
-        The building's folder name.
-    key : str
-        The fingerprint the row must have been written under.
-
-    Returns
-    -------
-    dict or None
-        The row from ``result.json``.
-    """
-    record_path = out_dir / "buildings" / folder / RESULT
-    try:
-        record = json.loads(record_path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    if not isinstance(record, dict) or record.get("status") != "planned" or record.get("key") != key:
-        return None
-    files = record.get("files")
-    if not isinstance(files, dict) or "route.json" not in files:
-        return None
-    for name, size in files.items():
-        path = record_path.parent / name
-        if not path.is_file() or path.stat().st_size != size:
-            return None
-    try:
-        json.loads((record_path.parent / "route.json").read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    record.pop("files")
-    return record
 
 
 # -- the batch --------------------------------------------------------------------------------

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from coverplan.batch.run import BatchSettings, parse_where, run_batch
+from coverplan.batch.run import BatchSettings, run_batch
+from coverplan.batch.selecting import parse_where
 from coverplan.cli.args import camera_from_args, export_options, plan_options
 from coverplan.cli.flags import add_planning_args
 from coverplan.errors import ParameterError

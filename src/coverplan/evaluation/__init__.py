@@ -17,8 +17,10 @@ from coverplan.evaluation.table import format_metrics
 from coverplan.flight.corners import flown_path
 from coverplan.flight.route import Route
 from coverplan.shots.framing import FRAMED_VIEWS_JUDGED, frame_fill, framed_view_matrix, view_fill
-from coverplan.shots.reachability import ViewLimits, reachability, scene_limits
-from coverplan.shots.reconstructability import MatchRule, graph_summary, shot_links
+from coverplan.shots.limits import ViewLimits, scene_limits
+from coverplan.shots.link_graph import graph_summary
+from coverplan.shots.reachability import reachability
+from coverplan.shots.reconstructability import MatchRule, shot_links
 from coverplan.shots.sharpness import SHARP_INCIDENCE_DEG, best_incidence, incidence_deg
 from coverplan.shots.surface import (
     CLASS_NAMES,

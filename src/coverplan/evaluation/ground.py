@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from coverplan.geometry.clearance import ClearanceModel
-from coverplan.shots.reachability import ViewLimits
+from coverplan.shots.limits import ViewLimits
 
 
 def heights_above_ground(points, limits: ViewLimits) -> tuple[np.ndarray, np.ndarray]:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from coverplan.errors import ParameterError, PlanningError
-from coverplan.shots.reachability import ViewLimits
+from coverplan.shots.limits import ViewLimits
 from coverplan.world.zones import KEEP_OUT
 
 

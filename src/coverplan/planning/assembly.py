@@ -28,9 +28,7 @@ from coverplan.planning.setup import Setup, zone_margin
 from coverplan.shots.candidates import (
     Candidates,
 )
-from coverplan.shots.reachability import (
-    ViewLimits,
-)
+from coverplan.shots.limits import ViewLimits
 from coverplan.shots.visibility import imaging_pairs
 
 

@@ -12,12 +12,13 @@ from coverplan.planning.selecting import Selection, lean
 from coverplan.planning.setup import Setup
 from coverplan.progress import Progress
 from coverplan.shots.bracing import brace_links
+from coverplan.shots.connecting import connect_shots
 from coverplan.shots.cover import CoverProblem
 from coverplan.shots.framing import (
     framed_view_matrix,
     view_fill,
 )
-from coverplan.shots.reconstructability import MatchRule, candidate_links, connect_shots, extend_links, shot_links
+from coverplan.shots.reconstructability import MatchRule, candidate_links, extend_links, shot_links
 from coverplan.shots.redundancy import TRIM_SPARE_VIEWS, CheckViews, SharpViews, drop_redundant
 from coverplan.shots.relink import check_views, relink_on_check
 from coverplan.shots.repair import MAX_ROUNDS, TARGET_PCT, GapCloser

@@ -8,10 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from coverplan.errors import PlanningError
-from coverplan.flight.pathing import (
-    build_lattice,
-    lattice_box,
-)
+from coverplan.flight.lattice import build_lattice, lattice_box
 from coverplan.planning.setup import Setup, plan_lattice_spacing
 from coverplan.progress import Progress
 from coverplan.shots.candidates import Candidates, along_normals, facade_rings, keep_safe, under_overhangs

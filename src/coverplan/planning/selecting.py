@@ -10,13 +10,14 @@ from coverplan.errors import PlanningError
 from coverplan.planning.problem import Problem
 from coverplan.planning.setup import Setup
 from coverplan.progress import Progress
+from coverplan.shots.connecting import connect_shots
 from coverplan.shots.edge_views import required_edge_views
 from coverplan.shots.framing import (
     framed_view_matrix,
     view_fill,
 )
 from coverplan.shots.lane_selection import select_lanes
-from coverplan.shots.reconstructability import MatchRule, connect_shots
+from coverplan.shots.reconstructability import MatchRule
 from coverplan.shots.selection import select_views
 from coverplan.shots.sharpness import add_sharp_views, add_wanted_views, incidence_deg, sharp_view_matrix
 

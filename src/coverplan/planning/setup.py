@@ -12,9 +12,7 @@ from coverplan.equipment.drones import TYPICAL_GNSS, DroneProfile
 from coverplan.equipment.flighttime import FlightModel
 from coverplan.equipment.margin import NO_MARGIN, PoseMargin, margin_for, tightened
 from coverplan.errors import ParameterError
-from coverplan.flight.pathing import (
-    lattice_spacing,
-)
+from coverplan.flight.lattice import lattice_spacing
 from coverplan.flight.start import check_start, default_start
 from coverplan.planning.guards import check_unit_slips
 from coverplan.planning.settings import (
@@ -27,10 +25,7 @@ from coverplan.planning.settings import (
 from coverplan.shots.candidates import (
     standoff,
 )
-from coverplan.shots.reachability import (
-    ViewLimits,
-    scene_limits,
-)
+from coverplan.shots.limits import ViewLimits, scene_limits
 from coverplan.shots.reconstructability import MatchRule
 from coverplan.shots.surface import default_spacing
 

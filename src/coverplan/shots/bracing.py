@@ -14,7 +14,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from coverplan.shots.reconstructability import MatchRule, candidate_links, cut_shots, depth_first, extend_links
+from coverplan.shots.link_graph import cut_shots, depth_first
+from coverplan.shots.reconstructability import MatchRule, candidate_links, extend_links
 from coverplan.shots.relink import check_views, new_check_views
 
 

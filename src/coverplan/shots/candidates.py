@@ -24,10 +24,8 @@ from shapely.geometry import MultiPolygon, Polygon
 from shapely.ops import unary_union
 
 from coverplan.geometry.orientation import heading_pitch, view_direction
-from coverplan.shots.reachability import (
-    ViewLimits,
-    tangent_frames,
-)
+from coverplan.shots.limits import ViewLimits
+from coverplan.shots.reachability import tangent_frames
 from coverplan.shots.surface import OPPOSED_TERRACE
 
 

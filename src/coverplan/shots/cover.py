@@ -8,7 +8,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from coverplan.shots.candidates import Candidates
-from coverplan.shots.reachability import ViewLimits
+from coverplan.shots.limits import ViewLimits
 from coverplan.shots.surface import (
     SurfaceSamples,
 )

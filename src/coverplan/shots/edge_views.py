@@ -6,9 +6,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from coverplan.shots.candidates import Candidates, thin
-from coverplan.shots.reachability import (
-    ViewLimits,
-)
+from coverplan.shots.limits import ViewLimits
 
 EDGE = 3  # Candidates.source of edge_views
 

@@ -33,7 +33,7 @@ from scipy.spatial import cKDTree
 
 from coverplan.shots.candidates import Candidates, _rings, _section_union, keep_safe
 from coverplan.shots.lane_rings import SMOOTH_SHARE, ring_lane, smooth_walk
-from coverplan.shots.reachability import ViewLimits
+from coverplan.shots.limits import ViewLimits
 
 FORWARD_OVERLAP = 0.6  # consecutive photos of a lane share this much of the frame along the run
 SIDE_OVERLAP = 0.4  # and neighbouring lanes (bands, roof strips) this much across it

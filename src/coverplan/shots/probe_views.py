@@ -6,14 +6,8 @@ import numpy as np
 
 from coverplan.runs import run_offsets
 from coverplan.shots.candidates import Candidates
-from coverplan.shots.reachability import (
-    OK,
-    ViewLimits,
-    cone_directions,
-    probe_positions,
-    tangent_frames,
-    test_probes,
-)
+from coverplan.shots.limits import ViewLimits
+from coverplan.shots.reachability import OK, cone_directions, probe_positions, tangent_frames, test_probes
 
 
 def from_probes(scene, samples, needy, limits: ViewLimits, per_sample: int = 8,

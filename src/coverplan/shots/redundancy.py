@@ -22,7 +22,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from coverplan.runs import run_offsets
-from coverplan.shots.reconstructability import depth_first
+from coverplan.shots.link_graph import depth_first
 from coverplan.shots.visibility import has_pair_between
 
 # Views to spare on every check sample a shot dropped by the final trim covered. With none,

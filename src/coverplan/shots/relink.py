@@ -18,7 +18,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
-from coverplan.shots.reconstructability import MatchRule, candidate_links, connect_shots, extend_links
+from coverplan.shots.connecting import connect_shots
+from coverplan.shots.reconstructability import MatchRule, candidate_links, extend_links
 from coverplan.shots.visibility import imaging_pairs
 
 
