@@ -252,7 +252,7 @@ def test_the_draws_table_names_the_worst_draws_class_and_gives_the_median(tmp_pa
     named; the median row gives the median of the draws' least classes, without a name."""
     import json
 
-    from coverplan.sfm.simulate import Simulation
+    from coverplan.sfm.simulation import Simulation
     draws = [{"photos": 10, "registered": r, "models": 1, "surface_0.2_pct": s, "least_class": c,
               "least_class_pct": p, "reconstructable": s >= 95.0, "seed": k}
              for k, (r, s, c, p) in enumerate([(10, 99.4, "roof", 98.1), (10, 98.9, "facade north", 94.7),

@@ -10,7 +10,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from coverplan.sfm.check import photo_heights
+from coverplan.sfm.photo_route import photo_heights
 from coverplan.sfm.photos import read_photo
 from tests.helpers import ROOT
 

@@ -17,7 +17,8 @@ from tests.helpers import MESHES
 
 pycolmap = pytest.importorskip("pycolmap", reason="simulate needs the sfm extra")
 
-from coverplan.sfm.simulate import Simulation, simulate  # noqa: E402
+from coverplan.sfm.simulate import simulate
+from coverplan.sfm.simulation import Simulation
 
 # px for the thesis plan's ideal-conditions run: below the default 1024 to keep it short (its
 # 15 photos fall apart at any width).

@@ -15,7 +15,8 @@ from coverplan.flight.route import Route  # noqa: E402
 from coverplan.io.load import load_scene  # noqa: E402
 from coverplan.planning import PlanSettings, plan  # noqa: E402
 from coverplan.sfm.check import Check, check  # noqa: E402
-from coverplan.sfm.simulate import Simulation, simulate  # noqa: E402
+from coverplan.sfm.simulate import simulate
+from coverplan.sfm.simulation import Simulation
 from coverplan.world.scene import Scene  # noqa: E402
 
 __all__ = ["Camera", "PRESETS", "get_camera", "Scene", "load_scene", "Route", "plan", "PlanSettings", "evaluate",

@@ -15,7 +15,7 @@ from coverplan.io import GEOGRAPHIC_FORMATS, parse_formats
 from coverplan.job import run_job, write_pictures
 from coverplan.progress import Progress
 from coverplan.sfm.existing import read_existing
-from coverplan.sfm.simulate import Simulation
+from coverplan.sfm.simulation import Simulation
 from coverplan.world.merge import merge_into_target
 
 

@@ -8,7 +8,7 @@ from coverplan.errors import ParameterError
 from coverplan.evaluation import evaluate
 from coverplan.job import write_pictures
 from coverplan.progress import Progress
-from coverplan.sfm.simulate import Simulation
+from coverplan.sfm.simulation import Simulation
 
 
 def cmd_report(args) -> int:

@@ -12,10 +12,11 @@ from coverplan.geometry.geo import check_crs
 from coverplan.io.formats import read_file
 from coverplan.io.registry import MeshSource
 from coverplan.io.scene_record import file_hash, scene_record
+from coverplan.world.dtm import TERRAIN_MARGIN_M, read_dtm
 from coverplan.world.merge import unite_overlapping_targets
 from coverplan.world.pointcloud import point_obstacle
 from coverplan.world.scene import UNITS, MeshPart, Scene, build_scene
-from coverplan.world.terrain import TERRAIN_MARGIN_M, Terrain, read_dtm
+from coverplan.world.terrain import Terrain
 
 
 def _part_name(path, raw: str, many: bool) -> str:

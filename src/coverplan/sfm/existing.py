@@ -10,7 +10,7 @@ from coverplan.errors import InputFileError
 from coverplan.flight.missions import mission_to_route
 from coverplan.flight.route import Route
 from coverplan.io.formats import read_mission
-from coverplan.sfm.check import photos_route
+from coverplan.sfm.photo_route import photos_route
 from coverplan.shots.existing import ExistingShots
 
 
