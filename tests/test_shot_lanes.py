@@ -23,9 +23,9 @@ from coverplan.shots.lanes import (
     courtyard_lanes,
     facade_lanes,
     lane_steps,
-    roof_lanes,
     safe_lanes,
 )
+from coverplan.shots.roof_lanes import roof_lanes
 from coverplan.shots.surface import sample_surface
 from coverplan.world.scene import scene_from_meshes
 from tests.helpers import MESHES, box

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
-from coverplan.geometry.clearance import surface_cover
+from coverplan.geometry.surface_cover import surface_cover
 
 _NEIGHBOURS = np.array([(i, j, k) for i in (-1, 0, 1) for j in (-1, 0, 1) for k in (-1, 0, 1)
                         if (i, j, k) > (0, 0, 0)])  # 13 of the 26: each edge once

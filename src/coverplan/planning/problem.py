@@ -21,13 +21,14 @@ from coverplan.shots.framing import (
     short_of_framing,
     view_fill,
 )
-from coverplan.shots.lanes import NEAR_LANE_SHARES, Lanes, courtyard_lanes, facade_lanes, roof_lanes, safe_lanes
+from coverplan.shots.lanes import NEAR_LANE_SHARES, Lanes, courtyard_lanes, facade_lanes, safe_lanes
 from coverplan.shots.probe_views import from_probes
 from coverplan.shots.reachability import (
     Reachability,
     reachability,
 )
 from coverplan.shots.reconstructability import candidate_links
+from coverplan.shots.roof_lanes import roof_lanes
 from coverplan.shots.sharpness import incidence_deg
 from coverplan.shots.surface import SurfaceSamples, sample_surface
 from coverplan.shots.visibility import has_pair_between, view_rays

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import trimesh
 
-from coverplan.geometry.clearance import mesh_distance
+from coverplan.geometry.surface_cover import mesh_distance
 from coverplan.world.scene import MeshPart, Scene
 
 
