@@ -172,7 +172,7 @@ def test_faces_links_are_links_sample_by_sample(mesh):
     of the centroid test's links (measured: the gabled house 96 % against 86 %, the L prism 98 %
     against 97 %)."""
     from coverplan import load_scene
-    from coverplan.evaluation import photo_poses
+    from coverplan.evaluation.photos import photo_poses
     from tests.helpers import MESHES
     from tests.independent import per_sample_links
     scene = load_scene(MESHES / mesh)

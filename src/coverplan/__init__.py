@@ -10,7 +10,8 @@ __version__ = "0.1.0"
 
 from coverplan.equipment.camera import PRESETS, Camera, get_camera  # noqa: E402
 from coverplan.errors import CoverplanError, InputFileError, ParameterError, PlanningError, RouteFormatError  # noqa: E402,E501
-from coverplan.evaluation import Evaluation, evaluate  # noqa: E402
+from coverplan.evaluation import evaluate
+from coverplan.evaluation.result import Evaluation
 from coverplan.flight.route import Route  # noqa: E402
 from coverplan.io.load import load_scene  # noqa: E402
 from coverplan.planning import PlanSettings, plan  # noqa: E402

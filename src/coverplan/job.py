@@ -6,7 +6,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from coverplan.evaluation import Evaluation, evaluate
+from coverplan.evaluation import evaluate
+from coverplan.evaluation.result import Evaluation
 from coverplan.flight.route import Route
 from coverplan.io.formats import export_route
 from coverplan.io.zones import read_zones

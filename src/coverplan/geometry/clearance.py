@@ -10,7 +10,6 @@ lies inside a mesh.
 
 from __future__ import annotations
 
-
 import fcl
 import numpy as np
 from scipy.spatial import cKDTree
