@@ -37,7 +37,7 @@ def lattice_spacing(d_opt: float, security: float, volume: float, max_nodes: int
 
 
 def node_costs(points, scene_distance, target_distance, d_opt: float) -> tuple[np.ndarray, float]:
-    """Thesis cost per point: (K - d(scene)) + |d(target) - d_opt|, with K the largest d(scene).
+    """Thesis cost per point: (K - d(scene)) + ``abs(d(target) - d_opt)``, with K the largest d(scene).
 
     Parameters
     ----------

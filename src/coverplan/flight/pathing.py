@@ -6,7 +6,7 @@ Nodes keep the security distance (KD-tree bound, FCL where it cannot tell); an e
 26-neighbours when its straight segment keeps it too (Lipschitz bound from the nodes'
 clearances, FCL capsules for the rest). Shots and the start join the lattice and each other
 by FCL-checked segments. Edge weight = length x (1 + w x cost / K), with the cost of thesis
-Eq. 3.2-3.3: security term K - d(scene) plus optimal-placement term |d(target) - d_opt|.
+Eq. 3.2-3.3: security term K - d(scene) plus optimal-placement term ``abs(d(target) - d_opt)``.
 Legs are shortened afterwards by replacing runs of nodes with straight safe segments.
 """
 

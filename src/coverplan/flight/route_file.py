@@ -58,12 +58,12 @@ def route_to_dict(route) -> dict:
     return d
 
 
-def route_from_dict(cls, data, path="route"):
-    """A route of class ``cls`` from the route file's JSON object, every field checked.
+def route_from_dict(route_class, data, path="route"):
+    """A route of class ``route_class`` from the route file's JSON object, every field checked.
 
     Parameters
     ----------
-    cls : type
+    route_class : type
         Route, or a subclass.
     data : object
         The decoded JSON.
@@ -159,7 +159,7 @@ def route_from_dict(cls, data, path="route"):
         raise RouteFormatError(path, "'uncovered' must be a list")
     vdir = np.array(vdir, dtype=float)
     vdir /= np.linalg.norm(vdir, axis=1, keepdims=True)
-    return cls(np.array(pos), np.array(shot), np.array(head), np.array(pitch), leg, camera, dict(params),
+    return route_class(np.array(pos), np.array(shot), np.array(head), np.array(pitch), leg, camera, dict(params),
                view_dir=vdir, frame=frame, uncovered=uncovered, metrics=data.get("metrics") or {},
                extra=data.get("planner") or {}, flight=np.array(flight),
                ground_z=np.array(ground) if ground else None,

@@ -48,7 +48,7 @@ def leg_top_speeds(model, positions, heading_deg, pitch_deg, shot, photo_interva
 
 def reachable_speeds(bound, length, acceleration: float) -> np.ndarray:
     """(n,) the highest speeds within ``bound`` (n,) that accelerate and brake within
-    ``acceleration`` over the legs ``length`` (n - 1,): v_k^2 <= b_j^2 + 2 a |s_k - s_j| for all j,
+    ``acceleration`` over the legs ``length`` (n - 1,): ``v_k**2 <= b_j**2 + 2 a abs(s_k - s_j)`` for all j,
     as two running minima.
 
     Parameters

@@ -1,6 +1,7 @@
 """Local route coordinates <-> WGS84, for exporters.
 
 A route's ``frame`` says where its local metres sit on Earth, one of two ways:
+
 - ``crs`` (e.g. "EPSG:25832") and ``origin``: local + origin are coordinates in that CRS, in
   metres (divided by ``crs_unit_m`` for a CRS counting in feet); heights are in
   ``vertical_crs`` when given (orthometric, above sea level), else unknown;

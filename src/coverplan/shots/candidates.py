@@ -1,6 +1,7 @@
 """Candidate viewpoints: where a shot could be taken, and which way it would look.
 
 Five generators, all 3D:
+
 - ``facade_rings``: horizontal sections of the target (trimesh) offset outward by the
   standoff (shapely) and walked along, cameras facing the wall at a few headings;
 - ``along_normals``: for a thinned set of samples, positions at the standoff along the
@@ -10,6 +11,7 @@ Five generators, all 3D:
 - ``under_overhangs``: for down-facing samples, cameras below and beside them looking up as
   steeply as the gimbal and the frame allow (``along_normals`` puts those under the ground);
 - ``from_probes`` (probe_views.py): for samples the others leave short, the reachability probes that work.
+
 Every candidate is then checked: above the minimum altitude, clear of every mesh by the
 security distance plus a margin, aimable by the gimbal.
 """

@@ -7,6 +7,7 @@ least ``min_triangulation_deg`` apart (the multi-cover problem with a triangulat
    gain scaled by 1 + x. The gain of a candidate is, summed over the samples it images, one
    per view still missing plus one when it forms the first wide-enough pair;
 3. a pass that drops shots the others make redundant, least LP-favoured first.
+
 On the thesis prism the LP guidance takes the greedy result from 1.33x to 1.16x the bound.
 """
 

@@ -131,6 +131,7 @@ class Scene:
 
     @cached_property
     def extent(self) -> float:
+        """The scene's largest side, metres."""
         return float(np.ptp(self.bounds(), axis=0).max())
 
     @cached_property
@@ -141,6 +142,7 @@ class Scene:
 
     @cached_property
     def rays(self):
+        """The ray caster over every mesh, the terrain as a sheet (built once)."""
         return RayCaster(self.meshes, epsilon=self.epsilon, sheets=[self.terrain.mesh] if self.terrain else [])
 
     def cover_edge(self, security: float) -> float:

@@ -139,7 +139,7 @@ class Terrain:
     @cached_property
     def max_slope(self) -> float:
         """Largest rise per metre of horizontal travel over any triangle (bounds the height
-        change along a segment: |dh| <= max_slope * horizontal length)."""
+        change along a segment: ``abs(dh) <= max_slope * horizontal length``)."""
         h = self.heights
         gx = np.abs(np.diff(h, axis=1)) / self.dx
         gy = np.abs(np.diff(h, axis=0)) / self.dy
