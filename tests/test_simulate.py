@@ -98,6 +98,7 @@ def test_field_flight_of_the_default_plan_reconstructs(field, house):
 
 
 @pytest.mark.xdist_group("field")
+@pytest.mark.slow  # a second field flight; benchmarks/reconstruction.py measures the margin on every scene
 def test_without_the_pose_margin_the_field_flight_loses_more(field, house, tmp_path):
     """The same house planned with the rules as given (no pose margin), flown in the same field
     draw: its weakest class loses more. Measured: 47 photos, 97.7 % rebuilt, the roof 95.8 %,
@@ -392,32 +393,42 @@ def test_colmap_option_overrides_reach_the_options_and_refuse_unknown_paths():
 
 
 def test_a_newcomer_simulates_from_the_route_alone(tmp_path):
-    """The README's simulate: `simulate ROUTE -o DIR --quick` on a route with no scene options,
-    its output a log file (not a terminal). The estimated time is the first line, progress comes
-    as lines with the time left, the table is COLMAP's (read back), and the README's block has
-    the same rows as this run."""
+    """The README's simulate, run as the README runs it: its plan, then `simulate ROUTE -o DIR
+    --quick` on a route with no scene options, its output a log file (not a terminal). The
+    estimated time is the first line, progress comes as lines with the time left, the table is
+    COLMAP's (read back), and the README's block has the same rows as this run."""
+    import importlib.util
     import re
+    import shlex
+    import shutil
     import subprocess
 
-    from coverplan.cli import main
     from tests.helpers import ROOT
 
-    route = tmp_path / "house.json"
-    assert main(["plan", str(MESHES / "gabled_house.obj"), "--drone", "m3e", "--gsd", "0.004", "--security", "3",
-                 "-o", str(route), "-q"]) == 0
-    done = subprocess.run(["coverplan", "simulate", str(route), "-o", str(tmp_path / "sim"), "--quick"],
-                          capture_output=True, text=True)
+    spec = importlib.util.spec_from_file_location("readme_examples", ROOT / "scripts" / "readme_examples.py")
+    examples = importlib.util.module_from_spec(spec)
+    sys.modules.setdefault("readme_examples", examples)  # its dataclasses look their module up
+    spec.loader.exec_module(examples)
+    by_name = {e.name: e for e in examples.EXAMPLES}
+    shutil.copytree(MESHES, tmp_path / "meshes")
+    examples.run(by_name["plan"], tmp_path)
+    command = by_name["simulate"].command
+    done = subprocess.run(shlex.split(command), cwd=tmp_path, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     err = [line for line in done.stderr.splitlines() if line.strip()]
     assert re.match(r"coverplan: simulating \d+ photos, 1 draw of 640 px: about \d+ (s|min)", err[0]), err[0]
     assert any(re.search(r"SfM features: \d+/\d+ photos? \(\d+ %\), .* left", line) for line in err) or \
         any("SfM features: done in" in line for line in err), err
     assert any("SfM matching: done in" in line for line in err), err
-    sim = Simulation.load(tmp_path / "sim" / "simulation.json")
-    models = sorted((tmp_path / "sim" / "colmap" / "sparse").iterdir())
+    out = tmp_path / shlex.split(command)[shlex.split(command).index("-o") + 1]
+    sim = Simulation.load(out / "simulation.json")
+    models = sorted((out / "colmap" / "sparse").iterdir())
     best = max((pycolmap.Reconstruction(m) for m in models), key=lambda r: r.num_reg_images())
     assert f"registered (largest model)    {best.num_reg_images()} " in done.stdout
     assert sim.conditions == "field" and len(sim.draws) == 1
-    readme = subprocess.run([sys.executable, str(ROOT / "scripts" / "readme_examples.py"), "--check", "--only",
-                             "simulate"], capture_output=True, text=True, cwd=ROOT)
-    assert readme.returncode == 0, readme.stdout + readme.stderr
+    # The README's block, as ``readme_examples.py --check`` compares it: the same rows.
+    lines = [line for line in (done.stderr + done.stdout).splitlines()
+             if line.strip() and not line.startswith("[coverplan]")]
+    block = f"```console\n$ {command}\n" + "\n".join(lines) + "\n```\n"
+    readme = {m.group("name"): m.group("body") for m in examples.BLOCK.finditer(examples.README.read_text("utf-8"))}
+    assert examples.labels(block) == examples.labels(readme["simulate"])
