@@ -5,7 +5,7 @@ from __future__ import annotations
 import sys
 import threading
 import time
-from contextlib import contextmanager, nullcontext
+from contextlib import contextmanager
 
 
 class Progress:
@@ -190,25 +190,3 @@ def clock_bar(update, total_s: int, period_s: float = 1.0):
         stop.set()
         ticker.join()
         update(total_s - done[0])
-
-
-def optional_stage(progress: Progress | None, name: str, total: int | None = None, unit: str = "it"):
-    """``progress.stage(...)``, or a stage that reports nothing when there is no Progress.
-
-    Parameters
-    ----------
-    progress : Progress or None
-        Reports the stage when given.
-    name : str
-        The stage's name.
-    total : int, optional
-        How many units it counts.
-    unit : str
-        The unit's name.
-
-    Returns
-    -------
-    context manager
-        Yields ``update(n)``.
-    """
-    return progress.stage(name, total=total, unit=unit) if progress is not None else nullcontext(_ignore)

@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from coverplan.errors import ParameterError, SfmError
-from coverplan.progress import optional_stage
+from coverplan.progress import Progress
 from coverplan.sfm.cameras import CameraGroup
 from coverplan.sfm.database import (
     _clear_matches,
@@ -244,6 +244,7 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     import time
 
     pycolmap = require_pycolmap()
+    progress = progress or Progress()
     check_matching(matching)
     mapper = pick_mapper(mapper, len(names))
     pycolmap.logging.minloglevel = 2  # COLMAP's per-image log drowns the progress bars
@@ -273,7 +274,7 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
         _kept(progress, "SfM features", database)
     else:
         with _colmap_failure("feature extraction", database), \
-                optional_stage(progress, "SfM features", total=len(names), unit="img") as tick:
+                progress.stage("SfM features", total=len(names), unit="img") as tick:
             done = 0
             for group in cameras:  # one call per camera: each call makes its camera from its options
                 reader = pycolmap.ImageReaderOptions()
@@ -298,7 +299,7 @@ def run_sfm(image_dir: Path, names: list[str], photo, true_centres: np.ndarray, 
     elif exhaustive:
         total = len(names) * (len(names) - 1) // 2
         with _colmap_failure("exhaustive matching", database), \
-                optional_stage(progress, "SfM matching", total=total, unit="pair") as tick:
+                progress.stage("SfM matching", total=total, unit="pair") as tick:
             polled(pycolmap, lambda token: pycolmap.match_exhaustive(
                 database, matching_options=matching, verification_options=verification,
                 device=pycolmap.Device.cpu, cancellation_token=token), database, "two_view_geometries", total, tick)
@@ -358,8 +359,7 @@ def aligned_models(pycolmap, recs: dict, names: list[str], true_centres: np.ndar
 
 
 def _kept(progress, stage: str, database: Path) -> None:
-    if progress is not None:
-        progress.note(f"{stage}: kept from the earlier run in {database}")
+    progress.note(f"{stage}: kept from the earlier run in {database}")
 
 
 @contextmanager

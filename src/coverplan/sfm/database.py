@@ -8,8 +8,6 @@ from pathlib import Path
 
 import numpy as np
 
-from coverplan.progress import optional_stage
-
 
 def write_position_priors(pycolmap, database: Path, names: list[str], positions: np.ndarray, sigma_m: float) -> None:
     """Each photo's recorded position (its GNSS tag, local metres) as a COLMAP pose prior.
@@ -210,7 +208,7 @@ def _match_pairs(pycolmap, database: Path, work_dir: Path, names: list[str], pai
     pairs_file.write_text("".join(f"{names[i]} {names[j]}\n" for i, j in pairs))
     pairing = pycolmap.ImportedPairingOptions()
     pairing.match_list_path = pairs_file
-    with optional_stage(progress, "SfM matching", total=len(pairs), unit="pair") as tick:
+    with progress.stage("SfM matching", total=len(pairs), unit="pair") as tick:
         polled(pycolmap, lambda token: pycolmap.match_image_pairs(
             database, matching_options=options, pairing_options=pairing, verification_options=verification,
             device=pycolmap.Device.cpu, cancellation_token=token), database, "two_view_geometries", len(pairs), tick)

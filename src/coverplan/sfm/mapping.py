@@ -6,7 +6,7 @@ import os
 from pathlib import Path
 
 from coverplan.errors import ParameterError
-from coverplan.progress import clock_bar, optional_stage
+from coverplan.progress import Progress, clock_bar
 
 MAPPERS = ("auto", "incremental", "global")
 
@@ -178,10 +178,11 @@ def map_models(pycolmap, mapper: str, database: Path, image_dir: Path, sparse: P
     dict
         COLMAP's reconstructions by index.
     """
+    progress = progress or Progress()
     if mapper == "incremental":
-        with optional_stage(progress, "SfM mapping", total=photos, unit="img") as tick:
+        with progress.stage("SfM mapping", total=photos, unit="img") as tick:
             return _map(pycolmap, mapper, database, image_dir, sparse, threads, seed, tick, refine=refine)
     estimate = global_mapping_seconds(photos, threads)
-    with optional_stage(progress, "SfM mapping (time estimated)", total=estimate, unit="s") as tick, \
+    with progress.stage("SfM mapping (time estimated)", total=estimate, unit="s") as tick, \
             clock_bar(tick, estimate):
         return _map(pycolmap, mapper, database, image_dir, sparse, threads, seed, tick, refine=refine)
