@@ -5,12 +5,10 @@ example runs."""
 
 from __future__ import annotations
 
-import ast
 import doctest
 import functools
-import importlib
+import importlib.util
 import inspect
-import pkgutil
 import re
 import subprocess
 import sys
@@ -40,46 +38,45 @@ def test_the_api_reference_builds_without_a_warning(tmp_path):
     assert 'id="coverplan.shots.lanes.Lanes.subset"' in reference
 
 
+def _conf():
+    """docs/api/conf.py as a module: the reference's own walk of the package and its checks."""
+    spec = importlib.util.spec_from_file_location("coverplan_api_conf", ROOT / "docs" / "api" / "conf.py")
+    conf = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(conf)
+    return conf
+
+
 def _modules():
-    return sorted(m.name for m in pkgutil.walk_packages(coverplan.__path__, "coverplan.")
-                  if not m.name.rsplit(".", 1)[-1].startswith("_"))
+    return sorted(m for modules in _conf().public_modules().values() for m in modules)
 
 
-def _conf_value(name):
-    tree = ast.parse((ROOT / "docs" / "api" / "conf.py").read_text(encoding="utf-8"))
-    return next(ast.literal_eval(n.value) for n in tree.body
-                if isinstance(n, ast.Assign) and any(getattr(t, "id", None) == name for t in n.targets))
-
-
-def _public_names():
-    """Every function and class a module defines (not imports), and their public methods and
-    properties: what the reference documents."""
-    for module_name in _modules():
-        module = importlib.import_module(module_name)
-        for name, obj in vars(module).items():
-            if name.startswith("_") or getattr(obj, "__module__", None) != module_name:
-                continue
-            if not (inspect.isfunction(obj) or inspect.isclass(obj)):
-                continue
-            yield f"{module_name}.{name}"
-            if inspect.isclass(obj):
-                for attr, member in vars(obj).items():
-                    wrapped = getattr(member, "__func__", member)
-                    if not attr.startswith("_") and (inspect.isfunction(wrapped) or isinstance(
-                            member, (property, functools.cached_property))):
-                        yield f"{module_name}.{name}.{attr}"
+def _public_names(conf):
+    """What the reference documents: every function and class a module defines (not imports),
+    and their public methods and properties."""
+    for modules in conf.public_modules().values():
+        for module_name in modules:
+            module = importlib.import_module(module_name)
+            for name in conf.own_names(module_name):
+                yield f"{module_name}.{name}"
+                obj = getattr(module, name)
+                if inspect.isclass(obj):
+                    for attr, member in vars(obj).items():
+                        wrapped = getattr(member, "__func__", member)
+                        if not attr.startswith("_") and (inspect.isfunction(wrapped) or isinstance(
+                                member, (property, functools.cached_property))):
+                            yield f"{module_name}.{name}.{attr}"
 
 
 def test_every_public_function_and_class_has_a_numpydoc_docstring():
     """The reference's own checks (conf.py), name by name, so a failure lists what to write."""
     validate = pytest.importorskip("numpydoc.validate").validate
-    checks = _conf_value("numpydoc_validation_checks")
-    excluded = re.compile("|".join(_conf_value("numpydoc_validation_exclude")))
-    names = [n for n in _public_names() if not excluded.search(n)]
+    conf = _conf()
+    excluded = re.compile("|".join(conf.numpydoc_validation_exclude))
+    names = [n for n in _public_names(conf) if not excluded.search(n)]
     assert len(names) > 700  # the walk finds the package's names
     bad = {}
     for name in names:
-        codes = sorted(code for code, _ in validate(name)["errors"] if code in checks)
+        codes = sorted(code for code, _ in validate(name)["errors"] if code in conf.numpydoc_validation_checks)
         if codes:
             bad[name] = codes
     assert not bad, "\n".join(f"{name}: {', '.join(codes)}" for name, codes in bad.items())

@@ -66,8 +66,14 @@ def own_names(module_name):
             if not name.startswith("_") and callable(obj) and getattr(obj, "__module__", None) == module_name]
 
 
-def write_reference():
-    """Write one page per subpackage into ``reference/`` and its table of contents."""
+def write_reference(app=None):
+    """Write one page per subpackage into ``reference/`` and its table of contents.
+
+    Parameters
+    ----------
+    app : sphinx.application.Sphinx, optional
+        The application, when run as its ``builder-inited`` hook (before the sources are read).
+    """
     REFERENCE.mkdir(exist_ok=True)
     pages = []
     for group, modules in sorted(public_modules().items()):
@@ -113,8 +119,8 @@ def skip_foreign(app, what, name, obj, skip, options):
 
 
 def setup(app):
+    app.connect("builder-inited", write_reference)
     app.connect("autodoc-skip-member", skip_foreign)
 
 
-write_reference()
 numpydoc_validation_exclude |= imported_names()
