@@ -58,9 +58,15 @@ def run(example: Example, cwd: Path) -> str:
     done = subprocess.run(shlex.split(example.command), cwd=cwd, capture_output=True, text=True)
     if done.returncode != 0:
         raise SystemExit(f"{example.name}: '{example.command}' exited {done.returncode}:\n{done.stderr}")
+    return block(example.command, done)
+
+
+def block(command: str, done: subprocess.CompletedProcess) -> str:
+    """A command's block as the README shows it: the command, then what it printed without
+    progress lines."""
     lines = [line for line in (done.stderr + done.stdout).splitlines()
              if line.strip() and not line.startswith("[coverplan]")]
-    return f"```console\n$ {example.command}\n" + "\n".join(lines) + "\n```\n"
+    return f"```console\n$ {command}\n" + "\n".join(lines) + "\n```\n"
 
 
 def labels(block: str) -> list[str]:

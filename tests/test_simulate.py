@@ -427,8 +427,6 @@ def test_a_newcomer_simulates_from_the_route_alone(tmp_path):
     assert f"registered (largest model)    {best.num_reg_images()} " in done.stdout
     assert sim.conditions == "field" and len(sim.draws) == 1
     # The README's block, as ``readme_examples.py --check`` compares it: the same rows.
-    lines = [line for line in (done.stderr + done.stdout).splitlines()
-             if line.strip() and not line.startswith("[coverplan]")]
-    block = f"```console\n$ {command}\n" + "\n".join(lines) + "\n```\n"
+    block = examples.block(command, done)
     readme = {m.group("name"): m.group("body") for m in examples.BLOCK.finditer(examples.README.read_text("utf-8"))}
     assert examples.labels(block) == examples.labels(readme["simulate"])
