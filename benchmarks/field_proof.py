@@ -9,6 +9,8 @@ texture, the plan's hash (its waypoints, headings and pitches) and the seed: a r
 what is there, a killed run loses at most the draw in flight, and a changed plan is flown
 again. Run it scene by scene (``--scenes gabled``) across sittings; ``--table`` prints the
 verdicts stored (worst and median of the draws per plan) without flying anything.
+``--max-pair-deg`` plans under a wider (or narrower) matching rule than the default 35 deg; the
+rule is part of the key, so its draws are kept apart from the default's.
 
 The verdict per plan is the worst draw's: registered photos in the largest model, models, the
 surface with a 3D point within 0.2 m, overall and of its weakest class (the bar: >= 98 % of
@@ -30,11 +32,23 @@ from common import MESHES, RESULTS, machine, table
 from coverplan import get_camera, load_scene, plan
 from coverplan.progress import Progress
 from coverplan.sfm.simulate import simulate
+from coverplan.shots.reconstructability import MatchRule
 from plan_scenes import SCENES
 
 CAMERA, GSD, SECURITY = "phantom4pro", 0.004, 3.0
 FILE = RESULTS / "field_proof.json"
 QUICK_FILE = RESULTS / "field_proof_quick.json"  # --quick: the gabled house, one small draw
+DEFAULT_PAIR_DEG = MatchRule().max_pair_deg
+
+
+def plan_options(max_pair_deg: float | None) -> dict:
+    """The plan() options of a matching rule whose widest pair is ``max_pair_deg`` (None: the default)."""
+    return {} if max_pair_deg is None else {"match": MatchRule(max_pair_deg=max_pair_deg)}
+
+
+def pair_label(max_pair_deg: float | None) -> str:
+    """The key's part for the matching rule: empty for the default rule."""
+    return "" if max_pair_deg in (None, DEFAULT_PAIR_DEG) else f"@{max_pair_deg:g}"
 
 
 def plan_hash(route) -> str:
@@ -62,11 +76,13 @@ def verdicts(draws: dict) -> list[dict]:
     """Per plan (scene, selection, conditions, texture, hash): worst and median of its draws."""
     plans: dict[tuple, list] = {}
     for d in draws.values():
-        plans.setdefault((d["scene"], d["selection"], d["conditions"], d["texture"], d["plan"]), []).append(d)
+        plans.setdefault((d["scene"], d["selection"], d.get("max_pair_deg", DEFAULT_PAIR_DEG), d["conditions"],
+                          d["texture"], d["plan"]), []).append(d)
     rows = []
-    for (scene, selection, conditions, texture, h), ds in sorted(plans.items()):
+    for (scene, selection, pair_deg, conditions, texture, h), ds in sorted(plans.items()):
         worst = min(ds, key=lambda d: (d["reconstructable"], d["registered"] / d["photos"], d["surface_02_pct"]))
-        rows.append({"scene": scene, "selection": selection, "conditions": conditions, "texture": texture, "plan": h,
+        rows.append({"scene": scene, "selection": selection, "max_pair_deg": pair_deg, "conditions": conditions,
+                     "texture": texture, "plan": h,
                      "draws": len(ds), "photos": worst["photos"], "registered": worst["registered"],
                      "models": worst["models"], "surface_02_pct": worst["surface_02_pct"],
                      "median_surface_02_pct": float(np.median([d["surface_02_pct"] for d in ds])),
@@ -95,6 +111,8 @@ def main(argv=None):
     parser.add_argument("--textures", nargs="+", default=["noise", "cells"], choices=["noise", "cells"])
     parser.add_argument("--draws", type=int, default=3)
     parser.add_argument("--width", type=int, default=1024, help="rendered photo width in px")
+    parser.add_argument("--max-pair-deg", type=float, default=None,
+                        help=f"the matching rule's widest pair (default {DEFAULT_PAIR_DEG:g} deg)")
     parser.add_argument("--table", action="store_true", help="print the stored verdicts and fly nothing")
     parser.add_argument("--quick", action="store_true", help="the gabled house's lanes, one draw of 240 px photos")
     args = parser.parse_args(argv)
@@ -111,24 +129,29 @@ def main(argv=None):
                 target, obstacles = SCENES[name]
                 scene = load_scene(MESHES / target, [MESHES / o for o in obstacles])
                 for selection in args.selection:
-                    route = plan(scene, camera, gsd=GSD, security=SECURITY, selection=selection)
+                    route = plan(scene, camera, gsd=GSD, security=SECURITY, selection=selection,
+                                 **plan_options(args.max_pair_deg))
                     h = plan_hash(route)
+                    label = selection + pair_label(args.max_pair_deg)
                     for texture in args.textures:
                         for seed in range(args.draws):
-                            key = f"{name}|{selection}|{args.conditions}|{texture}|{h}|{seed}"
+                            key = f"{name}|{label}|{args.conditions}|{texture}|{h}|{seed}"
                             if key in draws:
                                 continue
                             row = fly_draw(route, scene, Path(tmp) / key.replace("|", "_"), args.conditions,
                                            texture, seed, args.width)
-                            draws[key] = dict(row, scene=name, selection=selection, conditions=args.conditions,
+                            draws[key] = dict(row, scene=name, selection=selection,
+                                              max_pair_deg=args.max_pair_deg or DEFAULT_PAIR_DEG,
+                                              conditions=args.conditions,
                                               texture=texture, plan=h, seed=seed, width=args.width)
                             save(draws, path)
-                            print(f"  {name} {selection} {texture} seed {seed}: {row['registered']}/{row['photos']}, "
+                            print(f"  {name} {label} {texture} seed {seed}: {row['registered']}/{row['photos']}, "
                                   f"{row['models']} model(s), {row['surface_02_pct']:.1f} % @0.2 m, "
                                   f"{row['weakest_class']} {row['weakest_class_pct']:.1f} % "
                                   f"({row['seconds'] / 60:.1f} min)", flush=True)
     print(table(verdicts(draws), [("scene", "scene", ""), ("selection", "selection", ""),
-                                  ("texture", "texture", ""), ("draws", "draws", "d"), ("photos", "photos", "d"),
+                                  ("max_pair_deg", "pair deg", "g"), ("texture", "texture", ""),
+                                  ("draws", "draws", "d"), ("photos", "photos", "d"),
                                   ("registered", "worst registered", "d"), ("models", "models", "d"),
                                   ("surface_02_pct", "worst @0.2 m %", ".1f"),
                                   ("median_surface_02_pct", "median @0.2 m %", ".1f"),
