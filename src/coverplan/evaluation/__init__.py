@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from coverplan.errors import ParameterError
-from coverplan.evaluation.metrics import _metrics
+from coverplan.evaluation.metrics import route_metrics
 from coverplan.evaluation.photos import photo_poses, shot_graph
 from coverplan.evaluation.result import Evaluation
 from coverplan.flight.route import Route
@@ -45,7 +45,7 @@ def view_limits(route: Route, scene, rule: str = "strict") -> ViewLimits:
     lo, hi = route.params.get("gimbal_pitch_range_deg", (-90.0, 90.0))
     incidence = float(route.param("max_incidence_deg")) if rule == "strict" else 89.9
     ceiling = route.params.get("max_altitude_m")
-    # Reach is judged with the margin the planner kept from the zones; breaches (_metrics) exactly.
+    # Reach is judged with the margin the planner kept from the zones; breaches (route_metrics) exactly.
     zones = Zones.from_list(route.params.get("zones")).grown(float(route.params.get("zone_margin_m") or 0.0))
     if scene.terrain is not None:
         return scene_limits(scene, security=route.security, d_opt=route.d_opt, max_incidence_deg=incidence,
@@ -155,7 +155,7 @@ def evaluate(route: Route, scene, spacing: float | None = None, samples: Surface
     reach = reachability(scene, samples, limits, known=np.bincount(pt[witness], minlength=n) > 0)
     ev = Evaluation(route, samples, views, widest, covered, reach.reachable, reach.reason, pairs,
                     seg_d, seg_mesh, inside)
-    ev.metrics = _metrics(ev, scene, limits)
+    ev.metrics = route_metrics(ev, scene, limits)
     ev.metrics["rule"] = rule
     ev.metrics["shot_graph"] = shot_graph(route, samples, pairs)
     return ev

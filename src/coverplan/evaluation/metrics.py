@@ -108,7 +108,23 @@ def _gsd_achieved(ev: Evaluation) -> dict:
     return {"median": float(np.median(gsd)), "p95": float(np.percentile(gsd, 95)), "max": float(gsd.max())}
 
 
-def _metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
+def route_metrics(ev: Evaluation, scene, limits: ViewLimits) -> dict:
+    """The evaluator's metrics of a route evaluated on its samples (``Evaluation.metrics``).
+
+    Parameters
+    ----------
+    ev : Evaluation
+        The evaluation so far: route, samples, coverage and clearance filled in.
+    scene : Scene
+        The scene.
+    limits : ViewLimits
+        The viewpoint rules the route is judged by.
+
+    Returns
+    -------
+    dict
+        Metric name to value: coverage, clearance, altitude, zones, GSD, orientation, photo set.
+    """
     route, samples = ev.route, ev.samples
     area = samples.area
     reach = ev.reachable

@@ -22,12 +22,12 @@ import numpy as np
 
 from coverplan.flight.lanes import smooth_step
 from coverplan.flight.tour_moves import (
-    _EPS,
-    _MAX_CELLS,
-    _MIN_BLOCK,
-    _move_runs_while_improving,
-    _reverse_while_improving,
+    EPS,
+    MAX_CELLS,
+    MIN_BLOCK,
+    move_runs_while_improving,
     or_opt,
+    reverse_while_improving,
     two_opt,
 )
 
@@ -186,10 +186,10 @@ def _two_opt_turns(t, dist, positions, near, reversal_m) -> tuple[np.ndarray, bo
         delta = np.where((k <= i) | (k - i >= n - 2), np.inf, new - old)
         best = np.argmin(delta, axis=1)
         rows = np.arange(len(delta))
-        good = delta[rows, best] < -_EPS
+        good = delta[rows, best] < -EPS
         return k[rows, best], good, good
 
-    return _reverse_while_improving(t, moves, max(_MIN_BLOCK, _MAX_CELLS // near.shape[1]))
+    return reverse_while_improving(t, moves, max(MIN_BLOCK, MAX_CELLS // near.shape[1]))
 
 
 def _or_opt_turns(t, dist, positions, near, reversal_m, max_segment: int = 3) -> tuple[np.ndarray, bool]:
@@ -233,10 +233,10 @@ def _or_opt_turns(t, dist, positions, near, reversal_m, max_segment: int = 3) ->
         both[((k >= ii - 3) & (k <= ii + length)) | ((ii <= 3) & (k >= n - 2))] = np.inf
         best = np.argmin(both, axis=1)
         rows = np.arange(len(i))
-        return k[rows, best], both[rows, best] < saved - _EPS, fwd[rows, best] <= rev[rows, best]
+        return k[rows, best], both[rows, best] < saved - EPS, fwd[rows, best] <= rev[rows, best]
 
     # the run's next stop (its turn is judged) is inside the tour: it ends at n - 2 at the latest
-    return _move_runs_while_improving(t, moves, max(_MIN_BLOCK, _MAX_CELLS // (4 * near.shape[1])), max_segment,
+    return move_runs_while_improving(t, moves, max(MIN_BLOCK, MAX_CELLS // (4 * near.shape[1])), max_segment,
                                       n - 1)
 
 

@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 
-_EPS = 1e-9
+EPS = 1e-9
 
 
-_MIN_BLOCK = 4  # rows of moves evaluated per numpy call, at first
+MIN_BLOCK = 4  # rows of moves evaluated per numpy call, at first
 
 
-_MAX_CELLS = 16_384  # and at most (rows x tour length): big blocks of long tours waste work
+MAX_CELLS = 16_384  # and at most (rows x tour length): big blocks of long tours waste work
 
 
 def _first_move(lo: int, stop: int, moves, block: int, most: int):
@@ -31,36 +31,77 @@ def _first_move(lo: int, stop: int, moves, block: int, most: int):
     return None, None, None, block
 
 
-def _reverse_while_improving(t, moves, most: int) -> tuple[np.ndarray, bool]:
+def reverse_while_improving(t, moves, most: int) -> tuple[np.ndarray, bool]:
     """2-opt descent: ``moves(t, lo, hi)`` names for rows lo..hi-1 the end k of the best
     reversal of t[i..k]; the first improving one is taken and the search goes on from the next
-    row, until a pass finds none."""
+    row, until a pass finds none.
+
+    Parameters
+    ----------
+    t : (n,) int
+        The tour, node 0 first; changed in place.
+    moves : callable
+        ``moves(t, lo, hi)`` -> (ends, improving, flags), each (hi - lo,): per row its best
+        reversal's end, whether it shortens the tour, and a flag (unused here).
+    most : int
+        The most rows evaluated in one call.
+
+    Returns
+    -------
+    t : (n,) int
+        The tour.
+    changed : bool
+        Whether any reversal was taken.
+    """
     n = len(t)
     changed = False
     improved = True
     while improved:
         improved = False
-        i, block = 1, _MIN_BLOCK
+        i, block = 1, MIN_BLOCK
         while i < n - 1:
             i, k, _, block = _first_move(i, n - 1, lambda lo, hi: moves(t, lo, hi), block, most)
             if i is None:
                 break
             t[i:k + 1] = t[i:k + 1][::-1].copy()
             improved = changed = True
-            i, block = i + 1, _MIN_BLOCK
+            i, block = i + 1, MIN_BLOCK
     return t, changed
 
 
-def _move_runs_while_improving(t, moves, most: int, max_segment: int, last: int) -> tuple[np.ndarray, bool]:
+def move_runs_while_improving(t, moves, most: int, max_segment: int, last: int) -> tuple[np.ndarray, bool]:
     """Or-opt descent: for runs of 1..max_segment stops ending at tour position ``last`` at the
     latest, ``moves(t, lo, hi, length)`` names per row the tour edge k to put the run on and
-    whether forwards; the first improving move is taken, until a pass finds none."""
+    whether forwards; the first improving move is taken, until a pass finds none.
+
+    Parameters
+    ----------
+    t : (n,) int
+        The tour, node 0 first.
+    moves : callable
+        ``moves(t, lo, hi, length)`` -> (edges, improving, forwards), each (hi - lo,): per row
+        (the run's first position) the tour edge to put it on, whether that shortens the tour,
+        and whether the run goes in forwards.
+    most : int
+        The most rows evaluated in one call.
+    max_segment : int
+        The longest run moved.
+    last : int
+        The last tour position a run may end at.
+
+    Returns
+    -------
+    t : (n,) int
+        The tour.
+    changed : bool
+        Whether any run was moved.
+    """
     changed = False
     improved = True
     while improved:
         improved = False
         for length in range(1, max_segment + 1):
-            i, block = 1, _MIN_BLOCK
+            i, block = 1, MIN_BLOCK
             while i + length <= last:
                 i, k, forward, block = _first_move(i, last - length + 1, lambda lo, hi: moves(t, lo, hi, length),
                                                    block, most)
@@ -72,7 +113,7 @@ def _move_runs_while_improving(t, moves, most: int, max_segment: int, last: int)
                 piece = seg if forward else seg[::-1]
                 t = np.concatenate([rest[:pos + 1], piece, rest[pos + 1:]])
                 improved = changed = True
-                i, block = i + 1, _MIN_BLOCK
+                i, block = i + 1, MIN_BLOCK
     return t, changed
 
 
@@ -105,10 +146,10 @@ def two_opt(order, dist) -> tuple[np.ndarray, bool]:
         delta = dist[a[:, None], c] + dist[b[:, None], d] - dist[a, b][:, None] - dist[c, d][None, :]
         delta[cols[None, :] <= i[:, None]] = np.inf
         best = np.argmin(delta, axis=1)
-        good = delta[np.arange(len(i)), best] < -_EPS
+        good = delta[np.arange(len(i)), best] < -EPS
         return best, good, good
 
-    return _reverse_while_improving(t, moves, max(_MIN_BLOCK, _MAX_CELLS // n))
+    return reverse_while_improving(t, moves, max(MIN_BLOCK, MAX_CELLS // n))
 
 
 def or_opt(order, dist, max_segment: int = 3) -> tuple[np.ndarray, bool]:
@@ -147,7 +188,7 @@ def or_opt(order, dist, max_segment: int = 3) -> tuple[np.ndarray, bool]:
         both[(cols[None, :] >= i[:, None] - 1) & (cols[None, :] <= i[:, None] + length - 1)] = np.inf
         best = np.argmin(both, axis=1)
         rows = np.arange(len(i))
-        return best, both[rows, best] < saved - _EPS, fwd[rows, best] <= rev[rows, best]
+        return best, both[rows, best] < saved - EPS, fwd[rows, best] <= rev[rows, best]
 
     # a run may end at the tour's last stop
-    return _move_runs_while_improving(t, moves, max(_MIN_BLOCK, _MAX_CELLS // n), max_segment, n)
+    return move_runs_while_improving(t, moves, max(MIN_BLOCK, MAX_CELLS // n), max_segment, n)
