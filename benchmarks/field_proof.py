@@ -9,8 +9,9 @@ texture, the plan's hash (its waypoints, headings and pitches) and the seed: a r
 what is there, a killed run loses at most the draw in flight, and a changed plan is flown
 again. Run it scene by scene (``--scenes gabled``) across sittings; ``--table`` prints the
 verdicts stored (worst and median of the draws per plan) without flying anything.
-``--max-pair-deg`` plans under a wider (or narrower) matching rule than the default 35 deg; the
-rule is part of the key, so its draws are kept apart from the default's.
+``--max-pair-deg``, ``--edge-views off`` and ``--reversal-cost`` plan the lanes otherwise than
+by default (a wider matching rule, no required edge views, another price on reversals); the
+variant is part of the key (``lanes@50-no-edges-rev24``), so its draws are kept apart.
 
 The verdict per plan is the worst draw's: registered photos in the largest model, models, the
 surface with a 3D point within 0.2 m, overall and of its weakest class (the bar: >= 98 % of
@@ -41,14 +42,39 @@ QUICK_FILE = RESULTS / "field_proof_quick.json"  # --quick: the gabled house, on
 DEFAULT_PAIR_DEG = MatchRule().max_pair_deg
 
 
-def plan_options(max_pair_deg: float | None) -> dict:
-    """The plan() options of a matching rule whose widest pair is ``max_pair_deg`` (None: the default)."""
-    return {} if max_pair_deg is None else {"match": MatchRule(max_pair_deg=max_pair_deg)}
+def add_variant_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options that plan the lanes otherwise than by default (the shots keep the defaults)."""
+    parser.add_argument("--max-pair-deg", type=float, default=None,
+                        help=f"the matching rule's widest pair (default {DEFAULT_PAIR_DEG:g} deg)")
+    parser.add_argument("--edge-views", choices=["on", "off"], default="on",
+                        help="off: plan without the required edge views (as coverplan plan --edge-views off)")
+    parser.add_argument("--reversal-cost", dest="reversal_steps", type=float, default=None, metavar="STEPS",
+                        help="the tour's price on a reversal, in typical steps (default: the planner's)")
 
 
-def pair_label(max_pair_deg: float | None) -> str:
-    """The key's part for the matching rule: empty for the default rule."""
-    return "" if max_pair_deg in (None, DEFAULT_PAIR_DEG) else f"@{max_pair_deg:g}"
+def variant(args: argparse.Namespace) -> dict:
+    """The variant the arguments ask: max_pair_deg, edge_views, reversal_steps."""
+    return {"max_pair_deg": args.max_pair_deg, "edge_views": args.edge_views == "on",
+            "reversal_steps": args.reversal_steps}
+
+
+def plan_options(max_pair_deg: float | None = None, edge_views: bool = True,
+                 reversal_steps: float | None = None) -> dict:
+    """The plan() options of a variant (nothing for the defaults)."""
+    options = {} if max_pair_deg is None else {"match": MatchRule(max_pair_deg=max_pair_deg)}
+    if not edge_views:
+        options["edge_views"] = False
+    if reversal_steps is not None:
+        options["reversal_steps"] = reversal_steps
+    return options
+
+
+def variant_label(max_pair_deg: float | None = None, edge_views: bool = True,
+                  reversal_steps: float | None = None) -> str:
+    """The key's part for a variant: empty for the defaults, else e.g. ``@50-no-edges-rev24``."""
+    label = "" if max_pair_deg in (None, DEFAULT_PAIR_DEG) else f"@{max_pair_deg:g}"
+    label += "" if edge_views else "-no-edges"
+    return label + ("" if reversal_steps is None else f"-rev{reversal_steps:g}")
 
 
 def plan_hash(route) -> str:
@@ -75,14 +101,13 @@ def save(draws: dict, path: Path = FILE) -> Path:
 def verdicts(draws: dict) -> list[dict]:
     """Per plan (scene, selection, conditions, texture, hash): worst and median of its draws."""
     plans: dict[tuple, list] = {}
-    for d in draws.values():
-        plans.setdefault((d["scene"], d["selection"], d.get("max_pair_deg", DEFAULT_PAIR_DEG), d["conditions"],
-                          d["texture"], d["plan"]), []).append(d)
+    for key, d in draws.items():
+        label = key.split("|")[1]  # the selection and its variant
+        plans.setdefault((d["scene"], label, d["conditions"], d["texture"], d["plan"]), []).append(d)
     rows = []
-    for (scene, selection, pair_deg, conditions, texture, h), ds in sorted(plans.items()):
+    for (scene, selection, conditions, texture, h), ds in sorted(plans.items()):
         worst = min(ds, key=lambda d: (d["reconstructable"], d["registered"] / d["photos"], d["surface_02_pct"]))
-        rows.append({"scene": scene, "selection": selection, "max_pair_deg": pair_deg, "conditions": conditions,
-                     "texture": texture, "plan": h,
+        rows.append({"scene": scene, "selection": selection, "conditions": conditions, "texture": texture, "plan": h,
                      "draws": len(ds), "photos": worst["photos"], "registered": worst["registered"],
                      "models": worst["models"], "surface_02_pct": worst["surface_02_pct"],
                      "median_surface_02_pct": float(np.median([d["surface_02_pct"] for d in ds])),
@@ -111,8 +136,7 @@ def main(argv=None):
     parser.add_argument("--textures", nargs="+", default=["noise", "cells"], choices=["noise", "cells"])
     parser.add_argument("--draws", type=int, default=3)
     parser.add_argument("--width", type=int, default=1024, help="rendered photo width in px")
-    parser.add_argument("--max-pair-deg", type=float, default=None,
-                        help=f"the matching rule's widest pair (default {DEFAULT_PAIR_DEG:g} deg)")
+    add_variant_arguments(parser)
     parser.add_argument("--table", action="store_true", help="print the stored verdicts and fly nothing")
     parser.add_argument("--quick", action="store_true", help="the gabled house's lanes, one draw of 240 px photos")
     args = parser.parse_args(argv)
@@ -129,10 +153,11 @@ def main(argv=None):
                 target, obstacles = SCENES[name]
                 scene = load_scene(MESHES / target, [MESHES / o for o in obstacles])
                 for selection in args.selection:
+                    asked = variant(args) if selection == "lanes" else {}
                     route = plan(scene, camera, gsd=GSD, security=SECURITY, selection=selection,
-                                 **plan_options(args.max_pair_deg))
+                                 **plan_options(**asked))
                     h = plan_hash(route)
-                    label = selection + pair_label(args.max_pair_deg)
+                    label = selection + variant_label(**asked)
                     for texture in args.textures:
                         for seed in range(args.draws):
                             key = f"{name}|{label}|{args.conditions}|{texture}|{h}|{seed}"
@@ -140,8 +165,7 @@ def main(argv=None):
                                 continue
                             row = fly_draw(route, scene, Path(tmp) / key.replace("|", "_"), args.conditions,
                                            texture, seed, args.width)
-                            draws[key] = dict(row, scene=name, selection=selection,
-                                              max_pair_deg=args.max_pair_deg or DEFAULT_PAIR_DEG,
+                            draws[key] = dict(row, scene=name, selection=selection, variant=label,
                                               conditions=args.conditions,
                                               texture=texture, plan=h, seed=seed, width=args.width)
                             save(draws, path)
@@ -150,7 +174,7 @@ def main(argv=None):
                                   f"{row['weakest_class']} {row['weakest_class_pct']:.1f} % "
                                   f"({row['seconds'] / 60:.1f} min)", flush=True)
     print(table(verdicts(draws), [("scene", "scene", ""), ("selection", "selection", ""),
-                                  ("max_pair_deg", "pair deg", "g"), ("texture", "texture", ""),
+                                  ("texture", "texture", ""),
                                   ("draws", "draws", "d"), ("photos", "photos", "d"),
                                   ("registered", "worst registered", "d"), ("models", "models", "d"),
                                   ("surface_02_pct", "worst @0.2 m %", ".1f"),

@@ -8,10 +8,9 @@ photos, minutes flown through, smooth steps (consecutive photos within 10 deg of
 evaluator's coverage at 0.25 m and safety, and planning time (median of ``--repeats`` runs of
 each selection in the same process). The field verdict of each selection (worst and median of
 its draws, Phantom 4 Pro at 4 mm/px) is read from results/field_proof.json when
-``field_proof.py`` has flown the very plan the code makes today. ``--max-pair-deg`` plans the
-lanes under a wider matching rule and ``--reversal-steps`` with another price on reversals in
-the tour (the shots keep the defaults); the result file's name then says so
-(``results/lanes_pair50_rev24.json``).
+``field_proof.py`` has flown the very plan the code makes today. ``--max-pair-deg``,
+``--edge-views off`` and ``--reversal-cost`` plan the lanes otherwise than by default (the shots
+keep the defaults); the result file's name then says so (``results/lanes_pair50_no_edges_rev24.json``).
 """
 
 from __future__ import annotations
@@ -29,8 +28,8 @@ from coverplan.flight.passing import camera_timing, fly_through
 from field_proof import CAMERA as FIELD_CAMERA
 from field_proof import GSD as FIELD_GSD
 from field_proof import SECURITY as FIELD_SECURITY
+from field_proof import add_variant_arguments, plan_hash, plan_options, variant, variant_label, verdicts
 from field_proof import load as load_field
-from field_proof import pair_label, plan_hash, plan_options, verdicts
 from plan_scenes import SCENES
 from structure_scan import scan_with_roof_grid
 
@@ -38,11 +37,9 @@ GSD, SECURITY = 0.004, 3.0
 BARS = {"photos_vs_grid": 0.8, "minutes_vs_grid": 1.0, "smooth_pct": 75.0, "reversals_per_100": 3.0}
 
 
-def rows_for(name: str, repeats: int, field: list[dict], max_pair_deg: float | None = None,
-             reversal_steps: float | None = None) -> list[dict]:
-    lanes_options = plan_options(max_pair_deg)
-    if reversal_steps is not None:
-        lanes_options["reversal_steps"] = reversal_steps
+def rows_for(name: str, repeats: int, field: list[dict], asked: dict | None = None) -> list[dict]:
+    asked = asked or {}
+    lanes_options = plan_options(**asked)
     drone = get_drone("m3e")
     model = drone.flight_model()
     timing = camera_timing(drone.camera, drone, model)
@@ -67,7 +64,7 @@ def rows_for(name: str, repeats: int, field: list[dict], max_pair_deg: float | N
         ev = evaluate(route, scene)
         smooth, reversals = route_step_shape(route)
         photos, minutes = int(route.shot.sum()), route.metrics["fly_through"]["minutes"]
-        label = selection + (pair_label(max_pair_deg) + _rev_label(reversal_steps) if selection == "lanes" else "")
+        label = selection + (variant_label(**asked) if selection == "lanes" else "")
         row = {"scene": name, "selection": label, "photos": photos, "lane_photos": route.metrics["lane_shots"],
                "grid_photos": grid_photos, "photos_vs_grid": photos / grid_photos, "minutes": minutes,
                "grid_minutes": grid_min, "minutes_vs_grid": minutes / grid_min, "smooth_pct": smooth,
@@ -81,7 +78,7 @@ def rows_for(name: str, repeats: int, field: list[dict], max_pair_deg: float | N
         options = lanes_options if selection == "lanes" else {}
         proved = plan_hash(plan(scene, get_camera(FIELD_CAMERA), gsd=FIELD_GSD, security=FIELD_SECURITY,
                                 selection=selection, **options))
-        flown = [v for v in field if v["scene"] == name and v["selection"] == selection and v["plan"] == proved]
+        flown = [v for v in field if v["scene"] == name and v["selection"] == label and v["plan"] == proved]
         if flown:
             row["field_worst_pct"] = min(v["surface_02_pct"] for v in flown)
             row["field_median_pct"] = min(v["median_surface_02_pct"] for v in flown)
@@ -90,25 +87,18 @@ def rows_for(name: str, repeats: int, field: list[dict], max_pair_deg: float | N
     return out
 
 
-def _rev_label(reversal_steps: float | None) -> str:
-    return "" if reversal_steps is None else f"_rev{reversal_steps:g}"
-
-
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="two scenes, one run each")
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--max-pair-deg", type=float, default=None,
-                        help="the lanes' matching rule's widest pair (default: the rule's own, 35 deg)")
-    parser.add_argument("--reversal-steps", type=float, default=None,
-                        help="the lanes' tour price on a reversal, in typical steps (default: the planner's)")
+    add_variant_arguments(parser)
     args = parser.parse_args(argv)
     names = ["square", "gabled"] if args.quick else list(SCENES)
     repeats = 1 if args.quick else args.repeats
     field = verdicts(load_field())
     rows = []
     for name in names:
-        rows += rows_for(name, repeats, field, args.max_pair_deg, args.reversal_steps)
+        rows += rows_for(name, repeats, field, variant(args))
         print(f"  planned {name}", flush=True)
     print(table(rows, [("scene", "scene", ""), ("selection", "selection", ""), ("photos", "photos", "d"),
                        ("lane_photos", "in lanes", "d"), ("photos_vs_grid", "x grid photos", ".2f"),
@@ -118,10 +108,8 @@ def main(argv=None):
                        ("coverage_pct", "cov %", ".1f"), ("safe", "safe", ""), ("plan_s", "plan s", ".1f"),
                        ("plan_s_vs_shots", "x shots time", ".2f"), ("bars_met", "bars /4", "d"),
                        ("field_worst_pct", "field worst %", ".1f"), ("field_median_pct", "field median %", ".1f")]))
-    stem = "lanes" + (f"_pair{args.max_pair_deg:g}" if pair_label(args.max_pair_deg) else "") \
-        + _rev_label(args.reversal_steps)
-    meta = {"gsd_m": GSD, "security_m": SECURITY, "drone": "m3e", "max_pair_deg": args.max_pair_deg,
-            "reversal_steps": args.reversal_steps, "rows": rows}
+    stem = "lanes" + variant_label(**variant(args)).replace("@", "_pair").replace("-", "_")
+    meta = {"gsd_m": GSD, "security_m": SECURITY, "drone": "m3e", **variant(args), "rows": rows}
     print(f"written {write_json(stem, args.quick, meta)}")
 
 
