@@ -174,8 +174,7 @@ def main(argv=None):
                                   f"{row['weakest_class']} {row['weakest_class_pct']:.1f} % "
                                   f"({row['seconds'] / 60:.1f} min)", flush=True)
     print(table(verdicts(draws), [("scene", "scene", ""), ("selection", "selection", ""),
-                                  ("texture", "texture", ""),
-                                  ("draws", "draws", "d"), ("photos", "photos", "d"),
+                                  ("texture", "texture", ""), ("draws", "draws", "d"), ("photos", "photos", "d"),
                                   ("registered", "worst registered", "d"), ("models", "models", "d"),
                                   ("surface_02_pct", "worst @0.2 m %", ".1f"),
                                   ("median_surface_02_pct", "median @0.2 m %", ".1f"),

@@ -39,7 +39,7 @@ BARS = {"photos_vs_grid": 0.8, "minutes_vs_grid": 1.0, "smooth_pct": 75.0, "reve
 
 def rows_for(name: str, repeats: int, field: list[dict], asked: dict | None = None) -> list[dict]:
     asked = asked or {}
-    lanes_options = plan_options(**asked)
+    options = {"lanes": plan_options(**asked), "shots": {}}
     drone = get_drone("m3e")
     model = drone.flight_model()
     timing = camera_timing(drone.camera, drone, model)
@@ -50,9 +50,8 @@ def rows_for(name: str, repeats: int, field: list[dict], asked: dict | None = No
         times = []
         for _ in range(repeats):
             t = time.perf_counter()
-            options = lanes_options if selection == "lanes" else {}
             routes[selection] = plan(scene, drone.camera, gsd=GSD, security=SECURITY, drone=drone, max_flight_min=1e6,
-                                     selection=selection, **options)
+                                     selection=selection, **options[selection])
             times.append(time.perf_counter() - t)
         seconds[selection] = statistics.median(times)
     grid = scan_with_roof_grid(scene, drone.camera, GSD, SECURITY, routes["shots"].positions[0])
@@ -75,9 +74,8 @@ def rows_for(name: str, repeats: int, field: list[dict], asked: dict | None = No
         row["bars_met"] = sum(row[k] <= v if k != "smooth_pct" else row[k] >= v for k, v in BARS.items())
         # The field proof flies the plan at its own settings: its verdicts are this selection's
         # when they were flown on the very plan the code makes today (same hash).
-        options = lanes_options if selection == "lanes" else {}
         proved = plan_hash(plan(scene, get_camera(FIELD_CAMERA), gsd=FIELD_GSD, security=FIELD_SECURITY,
-                                selection=selection, **options))
+                                selection=selection, **options[selection]))
         flown = [v for v in field if v["scene"] == name and v["selection"] == label and v["plan"] == proved]
         if flown:
             row["field_worst_pct"] = min(v["surface_02_pct"] for v in flown)
