@@ -50,18 +50,21 @@ def add_variant_arguments(parser: argparse.ArgumentParser) -> None:
                         help="off: plan without the required edge views (as coverplan plan --edge-views off)")
     parser.add_argument("--reversal-cost", dest="reversal_steps", type=float, default=None, metavar="STEPS",
                         help="the tour's price on a reversal, in typical steps (default: the planner's)")
+    parser.add_argument("--min-cut", type=int, default=None, metavar="LINKS",
+                        help="links joining every group of photos to the rest (as coverplan plan --min-cut)")
 
 
 def variant(args: argparse.Namespace) -> dict:
-    """The variant the arguments ask: max_pair_deg, edge_views, reversal_steps."""
+    """The variant the arguments ask: max_pair_deg, edge_views, reversal_steps, min_cut."""
     return {"max_pair_deg": args.max_pair_deg, "edge_views": args.edge_views == "on",
-            "reversal_steps": args.reversal_steps}
+            "reversal_steps": args.reversal_steps, "min_cut": args.min_cut}
 
 
 def plan_options(max_pair_deg: float | None = None, edge_views: bool = True,
-                 reversal_steps: float | None = None) -> dict:
+                 reversal_steps: float | None = None, min_cut: int | None = None) -> dict:
     """The plan() options of a variant (nothing for the defaults)."""
-    options = {} if max_pair_deg is None else {"match": MatchRule(max_pair_deg=max_pair_deg)}
+    rule = {k: v for k, v in (("max_pair_deg", max_pair_deg), ("min_cut", min_cut)) if v is not None}
+    options = {"match": MatchRule(**rule)} if rule else {}
     if not edge_views:
         options["edge_views"] = False
     if reversal_steps is not None:
@@ -70,11 +73,12 @@ def plan_options(max_pair_deg: float | None = None, edge_views: bool = True,
 
 
 def variant_label(max_pair_deg: float | None = None, edge_views: bool = True,
-                  reversal_steps: float | None = None) -> str:
-    """The key's part for a variant: empty for the defaults, else e.g. ``@50-no-edges-rev24``."""
+                  reversal_steps: float | None = None, min_cut: int | None = None) -> str:
+    """The key's part for a variant: empty for the defaults, else e.g. ``@50-no-edges-rev24-cut3``."""
     label = "" if max_pair_deg in (None, DEFAULT_PAIR_DEG) else f"@{max_pair_deg:g}"
     label += "" if edge_views else "-no-edges"
-    return label + ("" if reversal_steps is None else f"-rev{reversal_steps:g}")
+    label += "" if reversal_steps is None else f"-rev{reversal_steps:g}"
+    return label + ("" if min_cut in (None, MatchRule().min_cut) else f"-cut{min_cut:d}")
 
 
 def plan_hash(route) -> str:

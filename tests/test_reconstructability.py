@@ -332,6 +332,8 @@ def test_bad_rule_settings_are_one_line_errors(capsys, tmp_path):
                         (["--min-overlap", "0"], "(--min-overlap) must be in (0, 1]"),
                         (["--rule", "thesis", "--max-pair-deg", "30"], "--max-pair-deg belongs to --rule sfm"),
                         (["--sharp-views", "-1"], "(--sharp-views) must be a whole number >= 0"),
+                        (["--min-cut", "-1"], "(--min-cut) must be a whole number >= 0"),
+                        (["--rule", "thesis", "--min-cut", "3"], "--min-cut belongs to --rule sfm"),
                         (["--rule", "thesis", "--sharp-views", "2"], "--sharp-views belongs to --rule sfm"),
                         (["--rule", "thesis", "--link-test", "faces"], "--link-test belongs to --rule sfm"),
                         (["--min-triangulation-deg", "40"], "must be below the widest matchable pair")):

@@ -394,7 +394,8 @@ def match_rule_from_args(args):
     given = {k: v for k, v in (("max_pair_deg", args.max_pair_deg), ("min_overlap", args.min_overlap),
                                ("min_neighbours", args.min_neighbours), ("sharp_views", args.sharp_views),
                                ("framed_views", args.framed_views), ("link_test", args.link_test),
-                               ("braced", None if args.links is None else args.links == "braced"))
+                               ("braced", None if args.links is None else args.links == "braced"),
+                               ("min_cut", args.min_cut))
              if v is not None}
     if not given:
         return None

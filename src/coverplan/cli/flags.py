@@ -297,6 +297,9 @@ def add_planning_args(p) -> dict:
     a.add_argument("--links", choices=["braced", "one-piece"], default=None,
                    help="sfm rule: braced (default): no photo is the only link between two groups of photos; "
                         "one-piece: the photos only need to link into one set")
+    a.add_argument("--min-cut", type=int, default=None, metavar="LINKS",
+                   help="sfm rule: links that join every group of 4 or more photos to the rest "
+                        "(default 0: not asked; 3 knits groups that hang on two links, docs/reconstruction.md)")
     a.add_argument("--link-test", choices=list(LINK_TESTS), default=None,
                    help="sfm rule: how two photos' rays to the surface both see are judged: centroid (default): "
                         "at the centroid of all of it; faces: face by face, each within 60 deg of both photos "

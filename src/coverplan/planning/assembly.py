@@ -117,7 +117,7 @@ def make_route(scene, setup: Setup, problem: Problem, selection: Selection, gaps
         params.update({"max_pair_deg": match.max_pair_deg, "min_overlap": match.min_overlap,
                        "min_neighbours": match.min_neighbours, "sharp_views": match.sharp_views,
                        "framed_views": match.framed_views,
-                       "braced_links": match.braced, "link_test": match.link_test})
+                       "braced_links": match.braced, "min_cut": match.min_cut, "link_test": match.link_test})
     through = None
     if settings.fly == "through":
         route = add_turn_points(route, settings.pass_rules.turn_share)

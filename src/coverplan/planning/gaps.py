@@ -18,6 +18,7 @@ from coverplan.shots.framing import (
     framed_view_matrix,
     view_fill,
 )
+from coverplan.shots.knitting import knit_links
 from coverplan.shots.reconstructability import MatchRule, candidate_links, extend_links, shot_links
 from coverplan.shots.redundancy import TRIM_SPARE_VIEWS, CheckViews, SharpViews, drop_redundant
 from coverplan.shots.relink import check_views, relink_on_check
@@ -137,6 +138,7 @@ def close_gaps(problem: Problem, selection: Selection, setup: Setup, progress: P
             chosen = relink_on_check(cover, closer, chosen, match, vis[:, :coarse])
             if match.braced:
                 chosen = brace_links(cover, closer, chosen, match, vis[:, :coarse])
+            chosen = knit_links(cover, closer, chosen, match, vis[:, :coarse])
             check_links = len(chosen) - kept
             if check_links:
                 check = closer.check(chosen)

@@ -6,7 +6,10 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import connected_components
 
+from coverplan.shots.knitting import edge_classes, thin_groups
 from coverplan.shots.reconstructability import MatchRule
+
+THIN_CUT = 3  # links a group of photos needs to the rest: the square's roof grid on two came apart in the field
 
 
 def cut_shots(links: sp.spmatrix) -> np.ndarray:
@@ -102,15 +105,20 @@ def graph_summary(links: np.ndarray, rule: MatchRule = MatchRule()) -> dict:
     Returns
     -------
     dict
-        Shots, components, largest component, shots short of neighbours, cut shots.
+        Shots, components, largest component, shots short of neighbours, cut shots, and the
+        groups of ``knitting.MIN_GROUP`` photos or more beyond the largest that fewer than
+        ``THIN_CUT`` links join to the rest (``thin_groups``, the photos in them ``thin_group_shots``).
     """
     n = len(links)
     if n == 0:
         return {"shots": 0, "components": 0, "largest_component": 0, "shots_short_of_neighbours": 0,
-                "median_neighbours": 0.0, "cut_shots": 0}
+                "median_neighbours": 0.0, "cut_shots": 0, "thin_groups": 0, "thin_group_shots": 0}
     degree = links.sum(axis=1)
+    classes = edge_classes(links, THIN_CUT)
+    thin = thin_groups(classes)
     n_comp, label = connected_components(sp.csr_matrix(links), directed=False)
     return {"shots": int(n), "components": int(n_comp),
             "largest_component": int(np.bincount(label).max()),
             "shots_short_of_neighbours": int((degree < rule.min_neighbours).sum()),
-            "median_neighbours": float(np.median(degree)), "cut_shots": len(cut_shots(links))}
+            "median_neighbours": float(np.median(degree)), "cut_shots": len(cut_shots(links)),
+            "thin_groups": len(thin), "thin_group_shots": int(np.isin(classes, thin).sum())}

@@ -57,6 +57,8 @@ class MatchRule:
         Views per sample that its face fills; 0 asks none.
     braced : bool
         No photo the links hang on.
+    min_cut : int
+        Links that join every group of photos to the rest (knitting.py); below 2 asks nothing.
     link_test : {"centroid", "faces", "samples"}
         How the shared surface's rays are judged.
     """
@@ -68,6 +70,7 @@ class MatchRule:
     framed_views: int = 0  # views per sample that its face fills (framing.py); 0: none asked (the default until
     # field runs under the same suns show it helps: docs/reconstruction.md)
     braced: bool = True  # no photo the links hang on (bracing.py); False: one piece is enough
+    min_cut: int = 0  # links across any cut between groups of photos (knitting.py); 0: not asked
     link_test: str = "centroid"  # LINK_TESTS: how the shared surface's rays are judged
 
     @property
@@ -88,6 +91,8 @@ class MatchRule:
         if int(self.min_neighbours) != self.min_neighbours or self.min_neighbours < 0:
             raise ParameterError(f"linked neighbours per photo (--min-neighbours) must be a whole number >= 0, "
                                  f"got {self.min_neighbours!r}")
+        if int(self.min_cut) != self.min_cut or self.min_cut < 0:
+            raise ParameterError(f"links across a cut (--min-cut) must be a whole number >= 0, got {self.min_cut!r}")
         if int(self.sharp_views) != self.sharp_views or self.sharp_views < 0:
             raise ParameterError(f"sharp views per sample (--sharp-views) must be a whole number >= 0, "
                                  f"got {self.sharp_views!r}")

@@ -1,0 +1,208 @@
+"""No group of photos on a thin bridge: links knitted until every sizeable group of photos is
+joined to the rest by at least ``MatchRule.min_cut`` links.
+
+Bracing (bracing.py) leaves no photo the set hangs on, but a whole group can still hang on two
+links to two different photos. The square's lanes plan without edge views at a 50 deg pair
+rule was one piece with no cut photo on the evaluator's samples; its roof grid (16 photos) was
+joined to the façades by two links, both to tilted linking shots, and in the field neither
+matched: the roof came back as a second model. Counting links across every cut of the graph
+(its k-edge-connected classes) finds such a group; knitting adds candidates that link into it
+and out of it, until the group and the rest are one class, nothing helps or the budget is spent.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.sparse.csgraph import breadth_first_order, connected_components, maximum_flow
+
+from coverplan.shots.reconstructability import MatchRule, candidate_links, extend_links
+from coverplan.shots.relink import check_views, new_check_views
+
+MIN_GROUP = 4  # photos in a group worth knitting: fewer lose less than the field bar allows
+MAX_POOL = 400  # candidates judged on the check samples, those knitting most on the planner's
+MAX_ROUNDS = 3  # pools drawn afresh for the groups as knitting leaves them
+
+
+def edge_classes(links: sp.spmatrix, min_cut: int) -> np.ndarray:
+    """Label per shot of its class: shots that no cut of fewer than ``min_cut`` links separates.
+
+    The cuts are read off a flow-equivalent tree (Gusfield's: one maximum flow per shot, on
+    scipy's Dinic), whose path between two shots has the fewest links any cut between them
+    has at its lightest edge; the classes are the tree's pieces once its edges lighter than
+    ``min_cut`` are gone.
+
+    Parameters
+    ----------
+    links : (n, n) sparse or dense
+        Symmetric links.
+    min_cut : int
+        Links every cut between two classes has fewer of.
+
+    Returns
+    -------
+    (n,) int
+        Class labels, 0 the largest class, then by falling size.
+    """
+    g = sp.csr_matrix(links, dtype=np.int32)
+    g.setdiag(0)
+    g.eliminate_zeros()
+    g.data[:] = 1
+    n = g.shape[0]
+    parent = np.zeros(n, dtype=np.int64)
+    weight = np.zeros(n, dtype=np.int64)
+    for s in range(1, n):
+        t = int(parent[s])
+        flow = maximum_flow(g, s, t, method="dinic")
+        weight[s] = flow.flow_value
+        residual = (g - flow.flow).tocsr()
+        residual.data = (residual.data > 0).astype(np.int32)
+        residual.eliminate_zeros()
+        side = np.zeros(n, dtype=bool)
+        side[breadth_first_order(residual, s, directed=True, return_predecessors=False)] = True
+        later = np.arange(n) > s
+        parent[later & side & (parent == t)] = s
+    keep = np.flatnonzero(weight >= min_cut)
+    keep = keep[keep > 0]
+    tree = sp.csr_matrix((np.ones(len(keep)), (keep, parent[keep])), shape=(n, n))
+    _n, label = connected_components(tree, directed=False)
+    order = np.argsort(-np.bincount(label), kind="stable")
+    rank = np.empty_like(order)
+    rank[order] = np.arange(len(order))
+    return rank[label].astype(np.int64)
+
+
+def thin_groups(label: np.ndarray, min_group: int = MIN_GROUP) -> np.ndarray:
+    """Labels of the classes (``edge_classes``) of at least ``min_group`` shots beyond the
+    largest: the groups joined to the rest by fewer than the classes' ``min_cut`` links.
+
+    Parameters
+    ----------
+    label : (n,) int
+        The shots' classes, 0 the largest.
+    min_group : int
+        Shots a group needs to count.
+
+    Returns
+    -------
+    (g,) int
+        Class labels.
+    """
+    sizes = np.bincount(label)
+    return np.flatnonzero(sizes >= min_group)[1:] if len(sizes) else np.zeros(0, dtype=np.int64)
+
+
+def knitting_gain(to_shots: sp.csr_matrix, label: np.ndarray, groups: np.ndarray) -> np.ndarray:
+    """Per candidate: the links it adds across the cuts between the thin ``groups`` and the
+    largest class: per group, the fewer of its links into the group and into the largest class
+    (each such pair of links is one more path between the two).
+
+    Parameters
+    ----------
+    to_shots : (m, k) sparse
+        Links from m candidates to the k shots.
+    label : (k,) int
+        The shots' classes, 0 the largest.
+    groups : (g,) int
+        Labels of the thin groups.
+
+    Returns
+    -------
+    (m,) int
+        Paths each candidate adds, summed over the groups.
+    """
+    to_shots = sp.csr_matrix(to_shots, copy=True)
+    to_shots.eliminate_zeros()
+    to_shots.data[:] = 1.0
+    into_main = to_shots @ (label == 0).astype(float)
+    gain = np.zeros(to_shots.shape[0], dtype=np.int64)
+    for g in np.asarray(groups):
+        gain += np.minimum(to_shots @ (label == g).astype(float), into_main).astype(np.int64)
+    return gain
+
+
+def knit_links(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse_vis: sp.csr_matrix,
+               max_added: int | None = None) -> np.ndarray:
+    """``chosen`` (candidate indices) with the candidates added that join its thin groups to
+    the rest on the check samples, one at a time the one knitting most groups, until no group
+    of ``MIN_GROUP`` photos or more is joined by fewer than ``rule.min_cut`` links, nothing
+    helps or ``max_added`` (default: a tenth of the shots) are added.
+
+    Parameters
+    ----------
+    problem : CoverProblem
+        The candidates and the check samples.
+    closer : GapCloser
+        Judges links on the check samples.
+    chosen : (k,) int
+        Candidate indices.
+    rule : MatchRule
+        The matching rule; ``min_cut`` below 2 asks nothing.
+    coarse_vis : scipy.sparse.csr_matrix
+        Candidates by the planner's samples.
+    max_added : int, optional
+        The most candidates added.
+
+    Returns
+    -------
+    (m,) int
+        ``chosen`` with the added candidates after it.
+    """
+    chosen = np.asarray(chosen, dtype=np.int64)
+    if rule.min_cut < 2 or len(chosen) < 2 * MIN_GROUP:
+        return chosen
+    budget = max(1, len(chosen) // 10) if max_added is None else int(max_added)
+    start = len(chosen)
+    for _round in range(MAX_ROUNDS):
+        chosen, done = _knit_round(problem, closer, chosen, rule, coarse_vis, budget - (len(chosen) - start))
+        if done or len(chosen) - start >= budget:
+            break
+    return chosen
+
+
+def _knit_round(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse_vis: sp.csr_matrix,
+                budget: int) -> tuple[np.ndarray, bool]:
+    """One round of ``knit_links``: a pool of candidates that knit the groups as they are now,
+    taken greedily; returns the shots and whether no thin group is left."""
+    fine = closer.fine
+    positions = problem.cands.positions
+    vis = check_views(closer, chosen, len(problem.cands))
+    unseen = np.flatnonzero(np.diff(vis.indptr) == 0)  # shots added after the check (links, bracing)
+    if len(unseen):
+        vis = vis.tolil()
+        vis[unseen] = new_check_views(problem, closer, chosen[unseen])
+        vis = vis.tocsr()
+    links = candidate_links(vis, positions[chosen], fine.points, rule, normals=fine.normals)
+    label = edge_classes(links, rule.min_cut)
+    groups = thin_groups(label)
+    if len(groups) == 0:
+        return chosen, True
+    coarse, coarse_normals = (a[:coarse_vis.shape[1]] for a in (problem.samples.points, problem.samples.normals))
+    near = candidate_links(coarse_vis, positions, coarse, rule, rows=chosen,
+                           normals=coarse_normals)[chosen].T.tocsr()  # candidates x shots
+    gain = knitting_gain(near, label, groups)
+    gain[chosen] = 0
+    extra = np.flatnonzero(gain > 0)
+    if len(extra) == 0:
+        return chosen, False
+    extra = extra[np.argsort(-gain[extra], kind="stable")[:MAX_POOL]]
+    pool = np.concatenate([chosen, extra])
+    every = extend_links(sp.vstack([vis, new_check_views(problem, closer, extra)]).tocsr(), positions[pool],
+                         fine.points, rule, links, normals=fine.normals)
+    taken = np.zeros(len(pool), dtype=bool)
+    taken[:len(chosen)] = True
+    done = False
+    for _ in range(budget + 1):
+        rows, rest = np.flatnonzero(taken), np.flatnonzero(~taken)
+        among = every[rows][:, rows]
+        label = edge_classes(among, rule.min_cut)
+        groups = thin_groups(label)
+        done = len(groups) == 0
+        if done or len(rest) == 0 or taken.sum() - len(chosen) >= budget:
+            break
+        gain = knitting_gain(every[rest][:, rows], label, groups)
+        best = int(np.argmax(gain))
+        if gain[best] <= 0:
+            break
+        taken[rest[best]] = True
+    return np.concatenate([chosen, pool[len(chosen):][taken[len(chosen):]]]), done
