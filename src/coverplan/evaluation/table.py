@@ -96,8 +96,6 @@ def format_metrics(m: dict) -> str:
         rows += [("matchable photo sets", f"{g['components']} (largest {g['largest_component']} of {g['shots']} photos)"),
                  ("photos short of neighbours", f"{g['shots_short_of_neighbours']} (fewer than {g['min_neighbours']} "
                                                 f"sharing {100 * g['min_overlap']:.0f} % within {g['max_pair_deg']:g} deg)"),
-                 ("photos the links hang on", f"{g.get('cut_shots', 0)} (each the only link between two groups)"),
-                 ("photos on thin bridges", f"{g.get('thin_group_shots', 0)} in {g.get('thin_groups', 0)} groups "
-                                            f"(4 or more photos joined to the rest by 1-2 links)")]
+                 ("photos the links hang on", f"{g.get('cut_shots', 0)} (each the only link between two groups)")]
     width = max(len(r[0]) for r in rows)
     return "\n".join(f"{name.ljust(width)}  {value}" for name, value in rows)
