@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from coverplan import evaluate, get_camera, load_scene, plan
 from coverplan.errors import ParameterError
-from coverplan.shots.knitting import edge_classes, knitting_gain, thin_groups
+from coverplan.shots.knitting import edge_classes, knitting_chain, knitting_gain, thin_groups
 from coverplan.shots.reconstructability import MatchRule
 from tests.helpers import MESHES
 
@@ -70,6 +70,19 @@ def test_knitting_gain_counts_paths_between_a_group_and_the_largest_class():
                                        [1, 1, 0, 0, 0, 0, 0, 1, 1, 1, 0],  # two paths across
                                        [0] * 11]))
     assert knitting_gain(to_shots, label, groups).tolist() == [1, 0, 0, 2, 0]
+
+
+def test_knitting_chain_runs_through_untaken_candidates_only():
+    # Shots 0, 1 (the group, label 1) and 5, 6 (the largest class, label 0) are taken; 0-5 is
+    # already a link. Candidates: 2-3 lead from 1 to 6, 4 from 0 to another taken shot 7 only.
+    known = np.zeros((8, 8), dtype=bool)
+    for a, b in ((0, 5), (1, 2), (2, 3), (3, 6), (0, 4), (4, 7), (7, 6)):
+        known[a, b] = known[b, a] = True
+    chosen = np.array([0, 1, 5, 6, 7])
+    label = np.array([1, 1, 0, 0, 2])
+    assert sorted(knitting_chain(sp.csr_matrix(known), chosen, label, 1).tolist()) == [2, 3]
+    known[2, 3] = known[3, 2] = False  # no chain left: the link 0-5 and the taken shot 7 do not count
+    assert knitting_chain(sp.csr_matrix(known), chosen, label, 1).tolist() == []
 
 
 @settings(max_examples=40, deadline=None)

@@ -138,7 +138,7 @@ def close_gaps(problem: Problem, selection: Selection, setup: Setup, progress: P
             chosen = relink_on_check(cover, closer, chosen, match, vis[:, :coarse])
             if match.braced:
                 chosen = brace_links(cover, closer, chosen, match, vis[:, :coarse])
-            chosen = knit_links(cover, closer, chosen, match, vis[:, :coarse])
+            chosen = knit_links(cover, closer, chosen, match, vis[:, :coarse], known=known)
             check_links = len(chosen) - kept
             if check_links:
                 check = closer.check(chosen)

@@ -14,14 +14,14 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.csgraph import breadth_first_order, connected_components, maximum_flow
+from scipy.sparse.csgraph import breadth_first_order, connected_components, dijkstra, maximum_flow
 
 from coverplan.shots.reconstructability import MatchRule, candidate_links, extend_links
 from coverplan.shots.relink import check_views, new_check_views
 
 MIN_GROUP = 4  # photos in a group worth knitting: fewer lose less than the field bar allows
 MAX_POOL = 400  # candidates judged on the check samples, those knitting most on the planner's
-MAX_ROUNDS = 3  # pools drawn afresh for the groups as knitting leaves them
+MAX_ROUNDS = 4  # pools drawn afresh for the groups as knitting leaves them
 
 
 def edge_classes(links: sp.spmatrix, min_cut: int) -> np.ndarray:
@@ -121,12 +121,63 @@ def knitting_gain(to_shots: sp.csr_matrix, label: np.ndarray, groups: np.ndarray
     return gain
 
 
+def knitting_chain(known: sp.spmatrix, chosen: np.ndarray, label: np.ndarray, group: int) -> np.ndarray:
+    """The untaken candidates on the shortest chain of links from a shot of ``group`` to a shot
+    of the largest class (label 0) that steps onto no other taken shot on the way, so that the
+    chain is one more path between them.
+
+    Parameters
+    ----------
+    known : (c, c) sparse
+        Symmetric links among candidates.
+    chosen : (k,) int
+        Candidate indices of the shots.
+    label : (k,) int
+        The shots' classes.
+    group : int
+        The group's label.
+
+    Returns
+    -------
+    (j,) int
+        Candidate indices, empty when no chain exists.
+    """
+    n = known.shape[0]
+    inside = chosen < n
+    taken = np.zeros(n, dtype=bool)
+    taken[chosen[inside]] = True
+    g = sp.coo_matrix(known)
+    keep = (g.row != g.col) & ~(taken[g.row] & taken[g.col]) & (g.data != 0)
+    g = sp.csr_matrix((np.ones(int(keep.sum())), (g.row[keep], g.col[keep])), shape=(n, n))
+    sources = chosen[inside & (label == group)]
+    targets = chosen[inside & (label == 0)]
+    if not len(sources) or not len(targets):
+        return np.zeros(0, dtype=np.int64)
+    # Taken shots end a chain: no edges out of them except from the group's own shots.
+    out_ok = ~taken
+    out_ok[sources] = True
+    g = sp.diags(out_ok.astype(float)) @ g
+    dist, pred, _src = dijkstra(g, directed=True, indices=sources, unweighted=True, min_only=True,
+                                return_predecessors=True)
+    end = targets[np.argmin(dist[targets])]
+    if not np.isfinite(dist[end]):
+        return np.zeros(0, dtype=np.int64)
+    chain, node = [], pred[end]
+    while node >= 0 and not taken[node]:
+        chain.append(int(node))
+        node = pred[node]
+    return np.array(chain, dtype=np.int64)
+
+
 def knit_links(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse_vis: sp.csr_matrix,
-               max_added: int | None = None) -> np.ndarray:
+               max_added: int | None = None, known: sp.spmatrix | None = None) -> np.ndarray:
     """``chosen`` (candidate indices) with the candidates added that join its thin groups to
     the rest on the check samples, one at a time the one knitting most groups, until no group
     of ``MIN_GROUP`` photos or more is joined by fewer than ``rule.min_cut`` links, nothing
-    helps or ``max_added`` (default: a tenth of the shots) are added.
+    helps or ``max_added`` (default: a tenth of the shots) are added. Where no single candidate
+    links into a group and into the largest class, the shortest chain of candidates between
+    them over ``known`` (the candidates' links on the planner's samples) is added instead and
+    judged in the next round.
 
     Parameters
     ----------
@@ -142,6 +193,8 @@ def knit_links(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse_vis:
         Candidates by the planner's samples.
     max_added : int, optional
         The most candidates added.
+    known : (c, c) sparse, optional
+        Links among the first c candidates on the planner's samples, for chains.
 
     Returns
     -------
@@ -154,14 +207,14 @@ def knit_links(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse_vis:
     budget = max(1, len(chosen) // 10) if max_added is None else int(max_added)
     start = len(chosen)
     for _round in range(MAX_ROUNDS):
-        chosen, done = _knit_round(problem, closer, chosen, rule, coarse_vis, budget - (len(chosen) - start))
+        chosen, done = _knit_round(problem, closer, chosen, rule, coarse_vis, budget - (len(chosen) - start), known)
         if done or len(chosen) - start >= budget:
             break
     return chosen
 
 
 def _knit_round(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse_vis: sp.csr_matrix,
-                budget: int) -> tuple[np.ndarray, bool]:
+                budget: int, known: sp.spmatrix | None = None) -> tuple[np.ndarray, bool]:
     """One round of ``knit_links``: a pool of candidates that knit the groups as they are now,
     taken greedily; returns the shots and whether no thin group is left."""
     fine = closer.fine
@@ -184,7 +237,11 @@ def _knit_round(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse_vis
     gain[chosen] = 0
     extra = np.flatnonzero(gain > 0)
     if len(extra) == 0:
-        return chosen, False
+        if known is None:
+            return chosen, False
+        chains = [knitting_chain(known, chosen, label, g) for g in groups]
+        added = np.unique(np.concatenate(chains))[:budget]
+        return np.concatenate([chosen, added]), False
     extra = extra[np.argsort(-gain[extra], kind="stable")[:MAX_POOL]]
     pool = np.concatenate([chosen, extra])
     every = extend_links(sp.vstack([vis, new_check_views(problem, closer, extra)]).tocsr(), positions[pool],
