@@ -7,7 +7,7 @@ rule was one piece with no cut photo on the evaluator's samples; its roof grid (
 joined to the façades by two links, both to tilted linking shots, and in the field neither
 matched: the roof came back as a second model. Counting links across every cut of the graph
 (its k-edge-connected classes) finds such a group; knitting adds candidates that link into it
-and out of it, until the group and the rest are one class, nothing helps or the budget is spent.
+and into the largest class, until the two are one class, nothing helps or the budget is spent.
 """
 
 from __future__ import annotations
@@ -19,7 +19,8 @@ from scipy.sparse.csgraph import breadth_first_order, connected_components, dijk
 from coverplan.shots.reconstructability import MatchRule, candidate_links, extend_links
 from coverplan.shots.relink import check_views, new_check_views
 
-MIN_GROUP = 4  # photos in a group worth knitting: fewer lose less than the field bar allows
+MIN_GROUP = 4  # photos in a group worth knitting: smaller ones are single photos and short runs, which
+# the neighbour count and bracing look after
 MAX_POOL = 400  # candidates judged on the check samples, those knitting most on the planner's
 MAX_ROUNDS = 4  # pools drawn afresh for the groups as knitting leaves them
 
@@ -37,7 +38,7 @@ def edge_classes(links: sp.spmatrix, min_cut: int) -> np.ndarray:
     links : (n, n) sparse or dense
         Symmetric links.
     min_cut : int
-        Links every cut between two classes has fewer of.
+        The fewest links a cut between two shots of one class has.
 
     Returns
     -------
