@@ -15,8 +15,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from coverplan.shots.link_graph import cut_shots, depth_first
-from coverplan.shots.reconstructability import MatchRule, candidate_links, extend_links
-from coverplan.shots.relink import check_views, new_check_views
+from coverplan.shots.reconstructability import MatchRule, candidate_links
+from coverplan.shots.relink import check_views, coarse_links, judged_pool, take_greedily
 
 
 def bracing_gain(among: sp.csr_matrix, to_shots: sp.csr_matrix, cuts: np.ndarray) -> np.ndarray:
@@ -112,29 +112,18 @@ def brace_links(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse_vis
     cuts = cut_shots(links)
     if len(cuts) == 0:
         return chosen
-    coarse, coarse_normals = (a[:coarse_vis.shape[1]] for a in (problem.samples.points, problem.samples.normals))
-    near = candidate_links(coarse_vis, positions, coarse, rule, rows=chosen,
-                           normals=coarse_normals)[chosen].T.tocsr()  # candidates x shots
+    near = coarse_links(problem, coarse_vis, chosen, rule).T.tocsr()  # candidates x shots
     gain = bracing_gain(links, near, cuts)
     gain[chosen] = 0
     extra = np.flatnonzero(gain > 0)
     if len(extra) == 0:
         return chosen
     extra = extra[np.argsort(-gain[extra], kind="stable")[:MAX_POOL]]
-    pool = np.concatenate([chosen, extra])
-    every = extend_links(sp.vstack([vis, new_check_views(problem, closer, extra)]).tocsr(), positions[pool],
-                         fine.points, rule, links, normals=fine.normals)
-    taken = np.zeros(len(pool), dtype=bool)
-    taken[:len(chosen)] = True
-    for _ in range(budget):
-        rows, rest = np.flatnonzero(taken), np.flatnonzero(~taken)
-        among = every[rows][:, rows]
+    pool, _vis, every = judged_pool(problem, closer, vis, links, chosen, extra, rule)
+
+    def score(among, to_taken):
         cuts = cut_shots(among)
-        if len(cuts) == 0 or len(rest) == 0:
-            break
-        gain = bracing_gain(among, every[rest][:, rows], cuts)
-        best = int(np.argmax(gain))
-        if gain[best] <= 0:
-            break
-        taken[rest[best]] = True
+        return None if len(cuts) == 0 else bracing_gain(among, to_taken, cuts)
+
+    taken, _done = take_greedily(every, len(chosen), budget, score)
     return np.concatenate([chosen, pool[len(chosen):][taken[len(chosen):]]])

@@ -16,8 +16,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import breadth_first_order, connected_components, dijkstra, maximum_flow
 
-from coverplan.shots.reconstructability import MatchRule, candidate_links, extend_links
-from coverplan.shots.relink import check_views, new_check_views
+from coverplan.shots.reconstructability import MatchRule, candidate_links
+from coverplan.shots.relink import check_views, coarse_links, judged_pool, new_check_views, take_greedily
 
 MIN_GROUP = 4  # photos in a group worth knitting: smaller ones are single photos and short runs, which
 # the neighbour count and bracing look after
@@ -231,9 +231,7 @@ def _knit_round(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse_vis
     groups = thin_groups(label)
     if len(groups) == 0:
         return chosen, True
-    coarse, coarse_normals = (a[:coarse_vis.shape[1]] for a in (problem.samples.points, problem.samples.normals))
-    near = candidate_links(coarse_vis, positions, coarse, rule, rows=chosen,
-                           normals=coarse_normals)[chosen].T.tocsr()  # candidates x shots
+    near = coarse_links(problem, coarse_vis, chosen, rule).T.tocsr()  # candidates x shots
     gain = knitting_gain(near, label, groups)
     gain[chosen] = 0
     extra = np.flatnonzero(gain > 0)
@@ -244,23 +242,12 @@ def _knit_round(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse_vis
         added = np.unique(np.concatenate(chains))[:budget]
         return np.concatenate([chosen, added]), False
     extra = extra[np.argsort(-gain[extra], kind="stable")[:MAX_POOL]]
-    pool = np.concatenate([chosen, extra])
-    every = extend_links(sp.vstack([vis, new_check_views(problem, closer, extra)]).tocsr(), positions[pool],
-                         fine.points, rule, links, normals=fine.normals)
-    taken = np.zeros(len(pool), dtype=bool)
-    taken[:len(chosen)] = True
-    done = False
-    for _ in range(budget + 1):
-        rows, rest = np.flatnonzero(taken), np.flatnonzero(~taken)
-        among = every[rows][:, rows]
+    pool, _vis, every = judged_pool(problem, closer, vis, links, chosen, extra, rule)
+
+    def score(among, to_taken):
         label = edge_classes(among, rule.min_cut)
         groups = thin_groups(label)
-        done = len(groups) == 0
-        if done or len(rest) == 0 or taken.sum() - len(chosen) >= budget:
-            break
-        gain = knitting_gain(every[rest][:, rows], label, groups)
-        best = int(np.argmax(gain))
-        if gain[best] <= 0:
-            break
-        taken[rest[best]] = True
+        return None if len(groups) == 0 else knitting_gain(to_taken, label, groups)
+
+    taken, done = take_greedily(every, len(chosen), budget, score)
     return np.concatenate([chosen, pool[len(chosen):][taken[len(chosen):]]]), done

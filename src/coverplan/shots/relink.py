@@ -56,8 +56,7 @@ def relink_on_check(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse
     short = np.asarray(links.sum(axis=1)).ravel() < rule.min_neighbours
     if n_pieces <= 1 and not short.any():
         return chosen
-    coarse, coarse_normals = (a[:coarse_vis.shape[1]] for a in (problem.samples.points, problem.samples.normals))
-    near = candidate_links(coarse_vis, positions, coarse, rule, rows=chosen, normals=coarse_normals)[chosen].tocsr()  # shots x candidates
+    near = coarse_links(problem, coarse_vis, chosen, rule)  # shots x candidates
     member = sp.csr_matrix((np.ones(len(chosen)), (piece, np.arange(len(chosen)))), shape=(n_pieces, len(chosen)))
     pieces_reached = np.asarray(((member @ near) > 0).sum(axis=0)).ravel()
     helps_short = np.asarray(near[np.flatnonzero(short)].sum(axis=0)).ravel() > 0
@@ -66,9 +65,7 @@ def relink_on_check(problem, closer, chosen: np.ndarray, rule: MatchRule, coarse
     extra = np.flatnonzero(useful)
     if len(extra) == 0:
         return chosen
-    pool = np.concatenate([chosen, extra])
-    vis = sp.vstack([vis, new_check_views(problem, closer, extra)]).tocsr()
-    every = extend_links(vis, positions[pool], fine.points, rule, links, normals=fine.normals)  # the shots' own links
+    pool, vis, every = judged_pool(problem, closer, vis, links, chosen, extra, rule)  # the shots' own links
     linked = connect_shots(vis, positions[pool], fine.points, np.arange(len(chosen)), rule, links=every)
     return pool[linked]
 
@@ -123,3 +120,102 @@ def new_check_views(problem, closer, extra: np.ndarray) -> sp.csr_matrix:
                                max_incidence_deg=problem.limits.max_incidence_deg, offset=problem.scene.epsilon * 4,
                                point_tree=closer.tree)
     return sp.csr_matrix((np.ones(len(cam)), (cam, pt)), shape=(len(extra), len(fine)))
+
+
+def coarse_links(problem, coarse_vis: sp.csr_matrix, chosen: np.ndarray, rule: MatchRule) -> sp.csr_matrix:
+    """Links from the ``chosen`` shots to every candidate on the planner's samples
+    (``coarse_vis``: candidates x those samples): (len(chosen), candidates).
+
+    Parameters
+    ----------
+    problem : CoverProblem
+        The candidates and the samples.
+    coarse_vis : scipy.sparse.csr_matrix
+        Candidates by the planner's samples.
+    chosen : (k,) int
+        Candidate indices.
+    rule : MatchRule
+        The matching rule.
+
+    Returns
+    -------
+    scipy.sparse.csr_matrix
+        (k, candidates) links.
+    """
+    coarse, coarse_normals = (a[:coarse_vis.shape[1]] for a in (problem.samples.points, problem.samples.normals))
+    return candidate_links(coarse_vis, problem.cands.positions, coarse, rule, rows=chosen,
+                           normals=coarse_normals)[chosen].tocsr()
+
+
+def judged_pool(problem, closer, vis: sp.csr_matrix, links, chosen: np.ndarray, extra: np.ndarray,
+                rule: MatchRule) -> tuple[np.ndarray, sp.csr_matrix, sp.csr_matrix]:
+    """The ``chosen`` shots and the candidates ``extra`` after them, with the views of all of
+    them on the check samples and their links judged there.
+
+    Parameters
+    ----------
+    problem : CoverProblem
+        The candidates.
+    closer : GapCloser
+        Holds the check samples.
+    vis : scipy.sparse.csr_matrix
+        The chosen shots' views on the check samples (``check_views``).
+    links : (k, k) sparse
+        Their links on the check samples.
+    chosen, extra : (k,), (j,) int
+        Candidate indices.
+    rule : MatchRule
+        The matching rule.
+
+    Returns
+    -------
+    pool : (k + j,) int
+        ``chosen`` then ``extra``.
+    vis : scipy.sparse.csr_matrix
+        (k + j, check samples) views.
+    links : scipy.sparse.csr_matrix
+        (k + j, k + j) links.
+    """
+    fine = closer.fine
+    pool = np.concatenate([chosen, extra])
+    vis = sp.vstack([vis, new_check_views(problem, closer, extra)]).tocsr()
+    return pool, vis, extend_links(vis, problem.cands.positions[pool], fine.points, rule, links, normals=fine.normals)
+
+
+def take_greedily(links: sp.spmatrix, n_chosen: int, budget: int, score) -> tuple[np.ndarray, bool]:
+    """Rows of a pool (the first ``n_chosen`` taken) taken one at a time, each the one
+    ``score`` rates highest, until ``score`` finds nothing left to mend, no rating is above
+    zero, the pool is spent or ``budget`` rows are taken.
+
+    Parameters
+    ----------
+    links : (p, p) sparse
+        Links among the pool.
+    n_chosen : int
+        Rows taken from the start.
+    budget : int
+        The most rows taken beyond them.
+    score : callable
+        ``score(among, to_taken)`` with the links among the taken rows and from the rest to
+        them: the rest's ratings, or None when nothing is left to mend.
+
+    Returns
+    -------
+    taken : (p,) bool
+        The rows taken.
+    done : bool
+        Whether ``score`` found nothing left to mend.
+    """
+    taken = np.zeros(links.shape[0], dtype=bool)
+    taken[:n_chosen] = True
+    while True:
+        rows, rest = np.flatnonzero(taken), np.flatnonzero(~taken)
+        gain = score(links[rows][:, rows], links[rest][:, rows])
+        if gain is None:
+            return taken, True
+        if len(rest) == 0 or len(rows) - n_chosen >= budget:
+            return taken, False
+        best = int(np.argmax(gain))
+        if gain[best] <= 0:
+            return taken, False
+        taken[rest[best]] = True
