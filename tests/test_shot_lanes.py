@@ -14,6 +14,7 @@ from coverplan.flight.lanes import route_step_shape
 from coverplan.flight.tour import lane_costs
 from coverplan.planning.settings import PlanSettings
 from coverplan.planning.setup import resolve
+from coverplan.shots.across_lanes import across_lanes, recess_lanes
 from coverplan.shots.candidates import Candidates
 from coverplan.shots.lane_selection import ring_pairs, select_lanes
 from coverplan.shots.lanes import (
@@ -133,6 +134,7 @@ def test_band_heights_cover_the_wall_from_foot_to_top():
     assert np.all(np.diff(z) <= 6.0 + 1e-9) and np.allclose(np.diff(z), np.diff(z)[0])
     assert z[0] - 5.0 <= 0.0 + 1.0 + 1e-9 and z[-1] + 5.0 >= 30.0 - 1.0 - 1e-9
     assert band_heights(0.0, 6.0, 10.0, 6.0, 3.0).tolist() == [3.0]  # one band fits; lifted to the floor
+    assert band_heights(0.0, 8.0, 8.3, 5.0, 0.0).tolist() == [4.0]  # the frame spans the wall, margin or not
 
 
 def test_courtyard_lanes_look_across_the_courtyard():
@@ -287,3 +289,73 @@ def test_selection_on_the_command_line(tmp_path, capsys):
             code = exc.code
         err = capsys.readouterr().err.strip().splitlines()
         assert code == 2 and len(err) == 1 and "Traceback" not in err[0], bad
+
+
+def test_across_lanes_look_at_the_sides_of_the_notches_from_over_the_far_wing():
+    """The H (wings 16..21 and 29..34, notches 8 m wide between them, 8 m tall): one lane over
+    each wing's inner edge, the nearest distance above the top, looking back across the notches
+    at the far wing's inner walls; an independent ray cast from each photo's centre of view
+    meets a notch's side wall first. A box has no wall facing another: no lane."""
+    scene = load_scene(MESHES / "h_prism.obj")
+    setup = setup_for(scene)
+    nearest = 1.2 * (setup.limits.security + setup.extra_clearance)
+    lanes = safe_lanes(scene, across_lanes(scene, setup.camera, setup.limits, setup.standoff, nearest),
+                       setup.limits, setup.extra_clearance)
+    p, heading = lanes.cands.positions, lanes.cands.heading_deg
+    assert lanes.count == 2 and len(p) >= 6
+    np.testing.assert_allclose(p[:, 2], 8.0 + nearest, atol=1e-6)
+    east = np.abs((heading - 90.0 + 180.0) % 360.0 - 180.0) < 1e-6  # over the west wing, looking east
+    west = np.abs((heading - 270.0 + 180.0) % 360.0 - 180.0) < 1e-6
+    assert np.all(east | west) and east.any() and west.any()
+    np.testing.assert_allclose(p[east, 0], 21.0, atol=1e-6)  # over the far wing's top edge
+    np.testing.assert_allclose(p[west, 0], 29.0, atol=1e-6)
+    # Points on the notches' side walls, imaged (independent frustum, incidence, range and
+    # occlusion test) by the lane on the far side.
+    y, z = np.meshgrid(np.r_[np.linspace(17.5, 22.75, 6), np.linspace(27.25, 32.5, 6)], np.linspace(0.5, 7.5, 5))
+    mesh = scene.meshes[0]
+    for lane_photos, wall_x, normal_x in ((east, 29.0, -1.0), (west, 21.0, 1.0)):
+        pts = np.column_stack([np.full(y.size, wall_x), y.ravel(), z.ravel()])
+        normals = np.tile([normal_x, 0.0, 0.0], (len(pts), 1))
+        views = sum(images(p[i], heading[i], lanes.cands.pitch_deg[i], setup.camera, pts, normals, mesh.triangles,
+                           setup.limits.d_opt, setup.limits.max_incidence_deg).astype(int)
+                    for i in np.flatnonzero(lane_photos))
+        assert views.min() >= 2 and views.mean() >= 2.5
+    box_scene = scene_from_meshes([box(0, 0, 0, 15, 15, 8)])
+    assert len(across_lanes(box_scene, setup.camera, setup.limits, setup.standoff, nearest)) == 0
+
+
+def test_recess_lanes_fly_across_the_mouth_of_each_notch():
+    """The H's notches are 5.75 m deep: one level lane per notch, the depth and the nearest
+    distance out from its back wall, facing it, each photo the nearest distance clear of every
+    surface (independent distance query); none on a box."""
+    scene = load_scene(MESHES / "h_prism.obj")
+    setup = setup_for(scene)
+    nearest = 1.2 * (setup.limits.security + setup.extra_clearance)
+    lanes = safe_lanes(scene, recess_lanes(scene, setup.camera, setup.limits, nearest), setup.limits,
+                       setup.extra_clearance)
+    p, heading = lanes.cands.positions, lanes.cands.heading_deg
+    assert lanes.count == 2
+    np.testing.assert_allclose(lanes.cands.pitch_deg, 0.0, atol=1e-9)
+    north = np.abs((heading + 180.0) % 360.0 - 180.0) < 1e-6  # south of the south notch, looking north
+    np.testing.assert_allclose(p[north, 1], 23.0 - 5.75 - nearest, atol=1e-6)
+    np.testing.assert_allclose(p[~north, 1], 27.0 + 5.75 + nearest, atol=1e-6)
+    assert np.abs((heading[~north] - 180.0 + 180.0) % 360.0 - 180.0).max() < 1e-6
+    assert polyline_min_distance(p[north], scene.meshes, 0.25) >= nearest - 1e-6
+    box_scene = scene_from_meshes([box(0, 0, 0, 15, 15, 8)])
+    assert len(recess_lanes(box_scene, setup.camera, setup.limits, nearest)) == 0
+
+
+def test_the_h_flies_its_notches_as_lanes_and_stays_safe_and_covered():
+    """The H's lanes plan photographs the notches' sides from the across lanes (photos over the
+    wings' inner edges, level with nothing, looking east or west and down), and is covered
+    and safe by the evaluator's own samples and an independent distance query."""
+    scene = load_scene(MESHES / "h_prism.obj")
+    route = plan(scene, get_camera("mavic3e"), gsd=0.004, security=SECURITY, selection="lanes")
+    ev = evaluate(route, scene)
+    assert ev.safe and ev.coverage_pct >= 99.5 and ev.metrics["shot_graph"]["components"] == 1
+    assert polyline_min_distance(route.positions, scene.meshes, SECURITY / 10) >= SECURITY
+    p, heading, pitch = route.positions[route.shots], route.heading_deg[route.shots], route.pitch_deg[route.shots]
+    over_wing = (np.abs(p[:, 0] - 21.0) < 0.5) | (np.abs(p[:, 0] - 29.0) < 0.5)
+    across = over_wing & (p[:, 2] > 8.0 + SECURITY) & (pitch < -20.0) & \
+        (np.abs(np.cos(np.radians(heading))) < 0.05)  # looking east or west
+    assert across.sum() >= 6

@@ -11,6 +11,7 @@ from coverplan.errors import PlanningError
 from coverplan.flight.lattice import build_lattice, lattice_box
 from coverplan.planning.setup import Setup, plan_lattice_spacing
 from coverplan.progress import Progress
+from coverplan.shots.across_lanes import across_lanes, recess_lanes
 from coverplan.shots.candidates import Candidates, along_normals, facade_rings, keep_safe, under_overhangs
 from coverplan.shots.check_samples import check_samples, planner_check_spacing
 from coverplan.shots.cover import CoverProblem
@@ -149,6 +150,9 @@ def build_problem(scene, setup: Setup, progress: Progress, pool: Executor) -> Pr
                                                   settings.side_overlap))
             lanes = lanes.concat(courtyard_lanes(scene, camera, limits, 1.1 * nearest, setup.standoff,
                                                  settings.forward_overlap, settings.side_overlap))
+            lanes = lanes.concat(across_lanes(scene, camera, limits, setup.standoff, nearest, settings.forward_overlap))
+            lanes = lanes.concat(recess_lanes(scene, camera, limits, nearest, settings.forward_overlap,
+                                              settings.side_overlap))
             lanes = lanes.concat(roof_lanes(scene, samples, camera, limits, setup.standoff, settings.forward_overlap,
                                             settings.side_overlap))
             lanes = safe_lanes(scene, lanes, limits, setup.extra_clearance)

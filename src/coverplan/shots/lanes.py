@@ -226,7 +226,7 @@ def band_heights(ground_z: float, top: float, frame_height: float, band: float, 
     """
     margin = BAND_MARGIN * frame_height
     lo, hi = ground_z + 0.5 * frame_height - margin, top - 0.5 * frame_height + margin
-    if hi <= lo:
+    if top - ground_z <= frame_height:  # one frame spans the wall: one band, whatever the margin
         z = np.array([0.5 * (ground_z + top)])
     else:
         z = np.linspace(lo, hi, 1 + int(np.ceil((hi - lo) / band)))
