@@ -16,7 +16,7 @@ from coverplan.planning.settings import PlanSettings
 from coverplan.planning.setup import resolve
 from coverplan.shots.across_lanes import across_lanes, recess_lanes
 from coverplan.shots.candidates import Candidates
-from coverplan.shots.lane_selection import ring_pairs, select_lanes
+from coverplan.shots.lane_selection import MAX_RING_GAP, _fill_rings, ring_pairs, select_lanes
 from coverplan.shots.lanes import (
     LANE_SOURCE,
     Lanes,
@@ -202,14 +202,31 @@ def test_select_lanes_takes_the_lane_and_trims_its_spare_end():
 def test_select_lanes_takes_pieces_and_a_ring_whole_without_its_repeat():
     """A ring of four photos (rows 0-3, row 4 the first again) in two pieces, each seeing its
     own two samples twice: both pieces are taken, so the ring is flown once round, without
-    the repeated photo and untrimmed; with one piece's samples seen by nothing else needing
-    views, only the other piece is taken, and trimmed as a run."""
+    the repeated photo and untrimmed; with one piece's samples needing no views, only the other
+    piece is taken, and the one photo left out between its ends is flown through: the ring whole
+    again."""
     ring = _lanes([0, 0, 0, 0, 0], pieces=[[0, 0, 3], [0, 2, 5]], closed=[True])
     rows = [[1, 1, 0, 0], [1, 1, 0, 0], [1, 1, 1, 1], [0, 0, 1, 1], [0, 0, 1, 1]]
     vis = sp.csr_matrix(np.array(rows, dtype=float))
     assert select_lanes(vis, ring, np.ones(4), min_views=2).tolist() == [0, 1, 2, 3]
     need = np.array([2, 2, 0, 0])
-    assert select_lanes(vis, ring, np.ones(4), min_views=2, need=need).tolist() == [1, 2]
+    assert select_lanes(vis, ring, np.ones(4), min_views=2, need=need).tolist() == [0, 1, 2, 3]
+
+
+def test_fill_rings_flies_through_short_gaps_only():
+    """A ring of 16 photos (row 16 the first again) taken but for a gap of MAX_RING_GAP photos
+    and one of MAX_RING_GAP + 1: the short gap is filled, the long one left; a straight lane's
+    gap is never filled."""
+    n = 16
+    ring = _lanes([0] * (n + 1) + [1] * 10, pieces=[[0, 0, n + 1], [1, n + 1, n + 11]], closed=[True, False])
+    taken = np.ones(n + 11, dtype=bool)
+    short, long_ = np.arange(1, 1 + MAX_RING_GAP), np.arange(8, 8 + MAX_RING_GAP + 1)
+    assert short[-1] < long_[0] - 1 and long_[-1] < n
+    taken[short] = taken[long_] = False
+    taken[n + 3:n + 5] = False
+    filled = _fill_rings(ring, taken)
+    assert filled[short].all() and not filled[long_].any() and not filled[n + 3:n + 5].any()
+    assert (filled == taken)[np.setdiff1d(np.arange(n + 11), short)].all()
 
 
 def test_ring_pairs_join_a_ring_across_its_repeated_photo():

@@ -6,8 +6,10 @@ grid) is worth the views its photos not yet taken add where samples still lack t
 ``LANE_OVERHEAD`` photos' worth for the turn into it, nothing when it continues a piece already
 taken. A single candidate costs ``SINGLE_COST``: singles are counted where they do better (so
 that no lane is flown for what one photo gives) but not taken; ``select_views`` chooses them
-again with the lanes preset. The pieces taken join into runs; each run then loses the photos at
-its ends that no sample needs, so it stays one run, and a ring taken whole is flown once round.
+again with the lanes preset. The pieces taken join into runs; a gap of ``MAX_RING_GAP`` photos or
+fewer in a ring is filled (flown through, it costs its photos and saves the turns off the ring
+and back); each run then loses the photos at its ends that no sample needs, so it stays one
+run, and a ring taken whole is flown once round.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from coverplan.shots.lanes import Lanes
 
 LANE_OVERHEAD = 1.0  # photos' worth of cost for entering a lane
 SINGLE_COST = 12.0  # photos' worth of a single shot: a stop, a turn there and back, its links, two steps not smooth
+MAX_RING_GAP = 6  # photos: a gap this short in a ring taken in part is flown through, saving the turns off and back
 
 
 def select_lanes(vis: sp.csr_matrix, lanes: Lanes, area: np.ndarray, min_views: int,
@@ -77,7 +80,7 @@ def select_lanes(vis: sp.csr_matrix, lanes: Lanes, area: np.ndarray, min_views: 
             got = np.zeros(len(need))
             got[single_vis.indices[single_vis.indptr[pick]:single_vis.indptr[pick + 1]]] = 1
         need = np.maximum(need - got.astype(need.dtype), 0)
-    taken = _close_rings(lanes, taken)
+    taken = _close_rings(lanes, _fill_rings(lanes, taken))
     whole = np.zeros(lanes.count, dtype=bool)
     rows_of = np.bincount(lanes.lane, minlength=lanes.count)
     whole[:] = np.bincount(lanes.lane[taken], minlength=lanes.count) == rows_of - lanes.closed
@@ -87,6 +90,24 @@ def select_lanes(vis: sp.csr_matrix, lanes: Lanes, area: np.ndarray, min_views: 
     joint[_ring_joints(lanes, taken).ravel()] = True
     return np.union1d(_trim_ends(lane_vis, np.flatnonzero(taken & ~keep_whole), lanes.lane, min_views, seen, joint),
                       np.flatnonzero(keep_whole))
+
+
+def _fill_rings(lanes: Lanes, taken: np.ndarray, max_gap: int = MAX_RING_GAP) -> np.ndarray:
+    """``taken`` with the gaps of ``max_gap`` photos or fewer in every ring taken in part
+    filled."""
+    taken = taken.copy()
+    for lane in np.flatnonzero(lanes.closed):
+        rows = np.flatnonzero(lanes.lane == lane)[:-1]  # without the repeated first photo
+        got = taken[rows] | (taken[rows[-1] + 1] & (np.arange(len(rows)) == 0))
+        if not got.any() or got.all():
+            continue
+        shift = int(np.flatnonzero(got)[0])
+        ring = np.roll(got, -shift)
+        edges = np.diff(np.r_[0, (~ring).astype(np.int8), 0])
+        for a, b in zip(np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)):
+            if b - a <= max_gap:
+                taken[rows[(np.arange(a, b) + shift) % len(rows)]] = True
+    return taken
 
 
 def _close_rings(lanes: Lanes, taken: np.ndarray) -> np.ndarray:
