@@ -73,6 +73,19 @@ def _midpoint(run: tuple[np.ndarray, bool]) -> tuple[np.ndarray, np.ndarray]:
     return (xy[0], normal[0]) if len(xy) else (np.zeros(2), np.zeros(2))
 
 
+def _mid_height_facades(scene, exterior_only: bool = False):
+    """The target's foot and top, its section at mid-height and that section's façades
+    (``_facades``; only the exterior rings' with ``exterior_only``), or None where the
+    section is empty."""
+    ground, top = float(scene.ground_z), float(scene.bounds("target")[1, 2])
+    section = _section_union(scene, 0.5 * (ground + top))
+    if section is None or section.is_empty:
+        return None
+    section = section.simplify(0.05)
+    runs = [run for ring in _rings(section) if ring[1] or not exterior_only for run in _facades(*ring)]
+    return ground, top, section, runs
+
+
 def _merged(runs: list[tuple[np.ndarray, bool]], gaps: np.ndarray):
     """The façades with a finite gap, those on one line facing one way across gaps within
     ``MERGE_M`` of each other joined into one straight run from the first's start to the
@@ -126,22 +139,19 @@ def across_lanes(scene, camera, limits: ViewLimits, standoff: float, nearest: fl
     Lanes
         Not yet clipped (``safe_lanes``).
     """
-    ground, top = float(scene.ground_z), float(scene.bounds("target")[1, 2])
-    mid_z = 0.5 * (ground + top)
-    section = _section_union(scene, mid_z)
-    if section is None or section.is_empty:
+    found = _mid_height_facades(scene)
+    if found is None:
         return Lanes.empty()
-    section = section.simplify(0.05)
-    runs = [run for ring in _rings(section) for run in _facades(*ring)]
+    ground, top, section, runs = found
+    mid_z = 0.5 * (ground + top)
     gaps = facing_gaps(section, runs, GAP_SHARES * standoff)
     out = Lanes.empty()
     z = top + nearest
     for run, gap in _merged(runs, gaps):
         across = gap + ACROSS_REACH * nearest
         slant = float(np.hypot(across, z - mid_z))
-        step = camera.footprint(slant)[0] * (1.0 - forward_overlap)
         width = camera.footprint(slant)[0]
-        xy, normal = _run_photos(run, step, OVERRUN * width, across)
+        xy, normal = _run_photos(run, width * (1.0 - forward_overlap), OVERRUN * width, across)
         if not len(xy):
             continue
         down = (z - mid_z) / slant
@@ -177,14 +187,10 @@ def recess_lanes(scene, camera, limits: ViewLimits, nearest: float, forward_over
     Lanes
         Not yet clipped (``safe_lanes``).
     """
-    ground, top = float(scene.ground_z), float(scene.bounds("target")[1, 2])
-    section = _section_union(scene, 0.5 * (ground + top))
-    if section is None or section.is_empty:
+    found = _mid_height_facades(scene, exterior_only=True)
+    if found is None or not found[3]:
         return Lanes.empty()
-    section = section.simplify(0.05)
-    runs = [run for ring in _rings(section) for run in _facades(*ring) if ring[1]]
-    if not runs:
-        return Lanes.empty()
+    ground, top, section, runs = found
     hull = section.convex_hull
     reach = float(np.ptp(np.asarray(hull.exterior.coords), axis=0).max())
     walls = facing_gaps(section, runs, reach)
