@@ -134,7 +134,10 @@ def test_band_heights_cover_the_wall_from_foot_to_top():
     assert np.all(np.diff(z) <= 6.0 + 1e-9) and np.allclose(np.diff(z), np.diff(z)[0])
     assert z[0] - 5.0 <= 0.0 + 1.0 + 1e-9 and z[-1] + 5.0 >= 30.0 - 1.0 - 1e-9
     assert band_heights(0.0, 6.0, 10.0, 6.0, 3.0).tolist() == [3.0]  # one band fits; lifted to the floor
-    assert band_heights(0.0, 8.0, 8.3, 5.0, 0.0).tolist() == [4.0]  # the frame spans the wall, margin or not
+    # One band where a frame spans the wall with half the margin to spare at either end; two
+    # where it only just spans it.
+    assert band_heights(0.0, 8.0, 8.9, 5.0, 0.0).tolist() == [4.0]
+    assert len(band_heights(0.0, 8.0, 8.3, 5.0, 0.0)) == 2
 
 
 def test_courtyard_lanes_look_across_the_courtyard():
@@ -282,10 +285,6 @@ def test_lanes_are_flown_end_to_end(gabled_lanes):
     assert route_step_shape(route)[0] > route_step_shape(shots)[0] + 5.0
 
 
-@pytest.mark.xfail(strict=True, reason="on the packages installed on 2026-12-07 the house's lanes take 77 photos "
-                                       "to the shots' 54 (1.43x), at the source that passed before too; cause not "
-                                       "found (not trimesh, scipy, numpy, shapely, embreex, fcl, manifold3d, rtree "
-                                       "or earcut versions); strict, so it fails once the lanes are lean again")
 def test_lanes_take_at_most_a_fifth_more_photos_than_shots(gabled_lanes):
     """The lanes plan of the house takes no more than a fifth more photos than its
     shot-by-shot plan (its edge views come on top of the lanes)."""
@@ -360,6 +359,10 @@ def test_recess_lanes_fly_across_the_mouth_of_each_notch():
     assert polyline_min_distance(p[north], scene.meshes, 0.25) >= nearest - 1e-6
     box_scene = scene_from_meshes([box(0, 0, 0, 15, 15, 8)])
     assert len(recess_lanes(box_scene, setup.camera, setup.limits, nearest)) == 0
+    # The L's inner walls lie as far inside its hull, but each meets a wall at one end only:
+    # its open end is flown round by the rings' wraps, so no recess lane.
+    l_scene = load_scene(MESHES / "l_prism.obj")
+    assert len(recess_lanes(l_scene, setup.camera, setup.limits, nearest)) == 0
 
 
 def test_the_h_flies_its_notches_as_lanes_and_stays_safe_and_covered():

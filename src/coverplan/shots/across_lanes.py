@@ -73,6 +73,17 @@ def _midpoint(run: tuple[np.ndarray, bool]) -> tuple[np.ndarray, np.ndarray]:
     return (xy[0], normal[0]) if len(xy) else (np.zeros(2), np.zeros(2))
 
 
+def _flanked(section, run: tuple[np.ndarray, bool], probe: float = 0.1) -> bool:
+    """Whether the walls at both ends of a façade turn outward: a point ``probe`` m past
+    each end, along the façade and ``probe`` m out from it, lies inside the section."""
+    xy = np.asarray(run[0], float)
+    _, normal = _midpoint(run)
+    first = (xy[0] - xy[1]) / np.linalg.norm(xy[0] - xy[1])
+    last = (xy[-1] - xy[-2]) / np.linalg.norm(xy[-1] - xy[-2])
+    probes = np.array([xy[0] + probe * (first + normal), xy[-1] + probe * (last + normal)])
+    return bool(shapely.contains_xy(section, probes[:, 0], probes[:, 1]).all())
+
+
 def _mid_height_facades(scene, exterior_only: bool = False):
     """The target's foot and top, its section at mid-height and that section's façades
     (``_facades``; only the exterior rings' with ``exterior_only``), or None where the
@@ -166,7 +177,9 @@ def recess_lanes(scene, camera, limits: ViewLimits, nearest: float, forward_over
                  side_overlap: float = SIDE_OVERLAP) -> Lanes:
     """One straight level lane per recessed façade (the back wall of a notch): a façade whose
     outward view leaves the section's convex hull ``depth`` beyond it, at least ``nearest``,
-    without meeting a wall. The lane runs along it ``depth`` + ``nearest`` out, across the
+    without meeting a wall, and whose ends both meet walls turning outward (``_flanked``).
+    A wall flanked at one end only (an L's inner corner) is flown round by the rings' wraps.
+    The lane runs along it ``depth`` + ``nearest`` out, across the
     recess's mouth, where the wrapped rings only pivot, band above band.
 
     Parameters
@@ -198,7 +211,7 @@ def recess_lanes(scene, camera, limits: ViewLimits, nearest: float, forward_over
     out = Lanes.empty()
     for run, d, wall in zip(runs, depth, walls):
         distance = d + nearest
-        if not np.isfinite(d) or d < nearest or distance >= wall:
+        if not np.isfinite(d) or d < nearest or distance >= wall or not _flanked(section, run):
             continue
         width, height = camera.footprint(distance)
         step, band = lane_steps(camera, distance, forward_overlap, side_overlap)

@@ -204,7 +204,8 @@ BAND_MARGIN = 0.1  # the lowest and highest bands' frames reach past the wall's 
 def band_heights(ground_z: float, top: float, frame_height: float, band: float, min_z: float) -> np.ndarray:
     """Heights of the façade bands: as few as cover the walls from their foot to ``top`` with
     ``BAND_MARGIN`` of the frame to spare at either end, no further apart than ``band``,
-    evenly spread, none below ``min_z``.
+    evenly spread, none below ``min_z``; one band at mid-height where one frame spans the wall
+    with half that margin to spare.
 
     Parameters
     ----------
@@ -226,7 +227,7 @@ def band_heights(ground_z: float, top: float, frame_height: float, band: float, 
     """
     margin = BAND_MARGIN * frame_height
     lo, hi = ground_z + 0.5 * frame_height - margin, top - 0.5 * frame_height + margin
-    if top - ground_z <= frame_height:  # one frame spans the wall: one band, whatever the margin
+    if top - ground_z <= (1 - BAND_MARGIN) * frame_height:  # one frame spans the wall with half the margin to spare
         z = np.array([0.5 * (ground_z + top)])
     else:
         z = np.linspace(lo, hi, 1 + int(np.ceil((hi - lo) / band)))
