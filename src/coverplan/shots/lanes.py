@@ -227,7 +227,7 @@ def band_heights(ground_z: float, top: float, frame_height: float, band: float, 
     """
     margin = BAND_MARGIN * frame_height
     lo, hi = ground_z + 0.5 * frame_height - margin, top - 0.5 * frame_height + margin
-    if top - ground_z <= (1 - BAND_MARGIN) * frame_height:  # one frame spans the wall with half the margin to spare
+    if top - ground_z <= frame_height - margin:  # one frame spans the wall with half the margin to spare
         z = np.array([0.5 * (ground_z + top)])
     else:
         z = np.linspace(lo, hi, 1 + int(np.ceil((hi - lo) / band)))
